@@ -1,0 +1,409 @@
+//! The whole configuration tree.
+//!
+//! The defaults live in one place: `configs/default.toml`, embedded in the binary with a comment on
+//! every key (`tensorscout config default` prints it verbatim). A user's config file and `--set`
+//! overrides are merged over that tree key by key; a key that is not in the default tree is an error
+//! naming its dotted path, and the merged tree is then deserialised with `deny_unknown_fields`.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The default config, with a comment on every key.
+pub const DEFAULT_TOML: &str = include_str!("../configs/default.toml");
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub seed: u64,
+    pub sim: SimConfig,
+    pub scene: SceneConfig,
+    pub map: MapConfig,
+    pub camera: CameraConfig,
+    pub robot: RobotConfig,
+    pub motion: MotionConfig,
+    pub search: SearchConfig,
+    pub greedy: GreedyConfig,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimConfig {
+    pub dt_s: f64,
+    pub budget_s: f64,
+    pub stuck_timeout_s: f64,
+    pub stuck_min_gain_m3: f64,
+    pub curve_interval_s: f64,
+    pub initial_look_around: bool,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneConfig {
+    pub wall_height_m: f64,
+    pub y_up: bool,
+    pub unknown_as_free: bool,
+    pub max_extent_m: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapConfig {
+    pub voxel_m: f64,
+    pub margin_m: f64,
+    pub band_min_m: f64,
+    pub band_max_m: f64,
+    pub log_odds_hit: f32,
+    pub log_odds_miss: f32,
+    pub log_odds_min: f32,
+    pub log_odds_max: f32,
+    pub log_odds_occupied: f32,
+    pub column_known_fraction: f64,
+    pub inflation_margin_m: f64,
+    pub frontier_segment_max_m: f64,
+    pub frontier_min_cells: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraConfig {
+    pub hfov_deg: f64,
+    pub vfov_deg: f64,
+    pub min_range_m: f64,
+    pub max_range_m: f64,
+    pub width: usize,
+    pub height: usize,
+    pub mount_height_m: f64,
+    pub rate_hz: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    pub radius_m: f64,
+    pub height_m: f64,
+    pub max_speed_mps: f64,
+    pub max_turn_rate_rps: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionConfig {
+    pub turn_in_place_rad: f64,
+    pub lookahead_m: f64,
+    pub goal_tolerance_m: f64,
+    pub slow_clearance_m: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchConfig {
+    pub unknown_is_free: bool,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GreedyConfig {
+    pub look_around_on_arrival: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        // The embedded default is checked by a unit test, so this cannot fail in a released binary.
+        Config::from_value(default_tree()).expect("configs/default.toml is a valid config")
+    }
+}
+
+fn default_tree() -> toml::Table {
+    DEFAULT_TOML
+        .parse::<toml::Table>()
+        .expect("configs/default.toml is valid TOML")
+}
+
+impl Config {
+    /// Builds a config from the defaults, an optional TOML file, and `key=value` overrides, in that
+    /// order, then validates it.
+    pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
+        let mut tree = default_tree();
+        if let Some(path) = file {
+            let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+            let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+                Error::usage(format!("{}: {}", path.display(), one_line(&e.to_string())))
+            })?;
+            merge(&mut tree, user, "")
+                .map_err(|e| Error::usage(format!("{}: {e}", path.display())))?;
+        }
+        for item in overrides {
+            apply_override(&mut tree, item)?;
+        }
+        let config = Config::from_value(tree)?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    fn from_value(tree: toml::Table) -> Result<Config> {
+        let de = toml::Value::Table(tree);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            Error::usage(format!(
+                "config key `{}`: {}",
+                e.path(),
+                one_line(&e.inner().to_string())
+            ))
+        })
+    }
+
+    /// The config as TOML (every key), as stored in logs and hashed into `config_hash`.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a config always serialises")
+    }
+
+    /// A stable 64-bit FNV-1a hash of the canonical TOML, as 16 hex digits.
+    pub fn hash(&self) -> String {
+        format!("{:016x}", crate::util::fnv1a64(self.to_toml().as_bytes()))
+    }
+
+    /// Rejects values that are of the right type but make no sense, naming the key.
+    pub fn validate(&self) -> Result<()> {
+        fn positive(key: &str, v: f64) -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::usage(format!(
+                    "config key `{key}` must be a positive number, got {v}"
+                )))
+            }
+        }
+        fn non_negative(key: &str, v: f64) -> Result<()> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(Error::usage(format!(
+                    "config key `{key}` must be zero or positive, got {v}"
+                )))
+            }
+        }
+        positive("sim.dt_s", self.sim.dt_s)?;
+        positive("sim.budget_s", self.sim.budget_s)?;
+        positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
+        non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
+        positive("sim.curve_interval_s", self.sim.curve_interval_s)?;
+        positive("scene.wall_height_m", self.scene.wall_height_m)?;
+        positive("scene.max_extent_m", self.scene.max_extent_m)?;
+        positive("map.voxel_m", self.map.voxel_m)?;
+        non_negative("map.margin_m", self.map.margin_m)?;
+        non_negative("map.band_min_m", self.map.band_min_m)?;
+        positive("map.band_max_m", self.map.band_max_m)?;
+        if self.map.band_max_m <= self.map.band_min_m + self.map.voxel_m {
+            return Err(Error::usage(format!(
+                "config key `map.band_max_m` ({}) must exceed `map.band_min_m` ({}) by more than one voxel",
+                self.map.band_max_m, self.map.band_min_m
+            )));
+        }
+        positive("map.log_odds_hit", self.map.log_odds_hit as f64)?;
+        if !(self.map.log_odds_miss < 0.0) {
+            return Err(Error::usage(format!(
+                "config key `map.log_odds_miss` must be negative, got {}",
+                self.map.log_odds_miss
+            )));
+        }
+        if !(self.map.log_odds_min < 0.0 && self.map.log_odds_max > 0.0) {
+            return Err(Error::usage(
+                "config keys `map.log_odds_min` and `map.log_odds_max` must be negative and positive",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.map.column_known_fraction) {
+            return Err(Error::usage(format!(
+                "config key `map.column_known_fraction` must lie in [0, 1], got {}",
+                self.map.column_known_fraction
+            )));
+        }
+        non_negative("map.inflation_margin_m", self.map.inflation_margin_m)?;
+        positive(
+            "map.frontier_segment_max_m",
+            self.map.frontier_segment_max_m,
+        )?;
+        let c = &self.camera;
+        for (key, v) in [
+            ("camera.hfov_deg", c.hfov_deg),
+            ("camera.vfov_deg", c.vfov_deg),
+        ] {
+            if !(v > 0.0 && v < 180.0) {
+                return Err(Error::usage(format!(
+                    "config key `{key}` must lie in (0, 180), got {v}"
+                )));
+            }
+        }
+        non_negative("camera.min_range_m", c.min_range_m)?;
+        positive("camera.max_range_m", c.max_range_m)?;
+        if c.min_range_m >= c.max_range_m {
+            return Err(Error::usage(
+                "config key `camera.min_range_m` must be below `camera.max_range_m`",
+            ));
+        }
+        if c.width == 0 || c.height == 0 {
+            return Err(Error::usage(
+                "config keys `camera.width` and `camera.height` must be at least 1",
+            ));
+        }
+        positive("camera.mount_height_m", c.mount_height_m)?;
+        positive("camera.rate_hz", c.rate_hz)?;
+        positive("robot.radius_m", self.robot.radius_m)?;
+        positive("robot.height_m", self.robot.height_m)?;
+        positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
+        positive("robot.max_turn_rate_rps", self.robot.max_turn_rate_rps)?;
+        positive("motion.turn_in_place_rad", self.motion.turn_in_place_rad)?;
+        positive("motion.lookahead_m", self.motion.lookahead_m)?;
+        positive("motion.goal_tolerance_m", self.motion.goal_tolerance_m)?;
+        non_negative("motion.slow_clearance_m", self.motion.slow_clearance_m)?;
+        Ok(())
+    }
+}
+
+/// First line of a possibly multi-line parser message, trimmed.
+fn one_line(msg: &str) -> String {
+    msg.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Merges `user` over `base`; every key of `user` must exist in `base` (named by its dotted path).
+fn merge(
+    base: &mut toml::Table,
+    user: toml::Table,
+    prefix: &str,
+) -> std::result::Result<(), String> {
+    for (key, value) in user {
+        let path = if prefix.is_empty() {
+            key.clone()
+        } else {
+            format!("{prefix}.{key}")
+        };
+        match (base.get_mut(&key), value) {
+            (None, _) => return Err(format!("unknown config key `{path}`")),
+            (Some(toml::Value::Table(b)), toml::Value::Table(u)) => merge(b, u, &path)?,
+            (Some(toml::Value::Table(_)), _) => {
+                return Err(format!(
+                    "config key `{path}` is a section; set one of its keys instead"
+                ))
+            }
+            (Some(slot), value) => *slot = value,
+        }
+    }
+    Ok(())
+}
+
+/// Applies one `key=value` override; the value is parsed as TOML, or taken as a string if it is not.
+fn apply_override(tree: &mut toml::Table, item: &str) -> Result<()> {
+    let (key, raw) = item
+        .split_once('=')
+        .ok_or_else(|| Error::usage(format!("--set `{item}`: expected KEY=VALUE")))?;
+    let key = key.trim();
+    let raw = raw.trim();
+    if key.is_empty() {
+        return Err(Error::usage(format!("--set `{item}`: empty key")));
+    }
+    let value = format!("v = {raw}")
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+    let mut user = toml::Table::new();
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut slot = &mut user;
+    for part in &parts[..parts.len() - 1] {
+        slot = slot
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            .as_table_mut()
+            .expect("just inserted a table");
+    }
+    slot.insert(parts[parts.len() - 1].to_string(), value);
+    merge(tree, user, "").map_err(|e| Error::usage(format!("--set {key}: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_toml_parses_and_validates() {
+        let c = Config::default();
+        c.validate().unwrap();
+        assert_eq!(c.map.voxel_m, 0.1);
+        assert_eq!(c.camera.width, 80);
+        assert_eq!(c.robot.radius_m, 0.25);
+        assert_eq!(c.sim.budget_s, 1800.0);
+    }
+
+    #[test]
+    fn every_key_of_the_default_has_a_comment() {
+        let mut previous = "";
+        for line in DEFAULT_TOML.lines() {
+            let t = line.trim();
+            if !t.is_empty() && !t.starts_with('#') && !t.starts_with('[') {
+                assert!(
+                    previous.starts_with('#'),
+                    "key line `{t}` has no comment above it"
+                );
+            }
+            previous = t;
+        }
+    }
+
+    #[test]
+    fn round_trips_through_toml() {
+        let c = Config::default();
+        let back: Config = toml::from_str(&c.to_toml()).unwrap();
+        assert_eq!(back, c);
+    }
+
+    #[test]
+    fn set_overrides_dotted_keys() {
+        let c = Config::load(None, &["map.voxel_m=0.05".into(), "seed=7".into()]).unwrap();
+        assert_eq!(c.map.voxel_m, 0.05);
+        assert_eq!(c.seed, 7);
+        assert_ne!(c.hash(), Config::default().hash());
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = Config::load(None, &["map.voxl_m=0.05".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--set map.voxl_m: unknown config key `map.voxl_m`"
+        );
+        assert_eq!(e.exit_code(), 2);
+    }
+
+    #[test]
+    fn wrong_type_names_the_key() {
+        let e = Config::load(None, &["camera.width=wide".into()]).unwrap_err();
+        assert!(
+            e.to_string().starts_with("config key `camera.width`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn negative_resolution_is_rejected() {
+        let e = Config::load(None, &["map.voxel_m=-0.1".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `map.voxel_m` must be a positive number, got -0.1"
+        );
+    }
+
+    #[test]
+    fn unknown_key_in_file_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(&path, "[robot]\nradius_m = 0.3\nspeed = 2\n").unwrap();
+        let e = Config::load(Some(&path), &[]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("{}: unknown config key `robot.speed`", path.display())
+        );
+    }
+}

@@ -1,0 +1,228 @@
+//! The one place that converts between world coordinates and grid indices.
+//!
+//! A [`GridSpec`] describes a regular grid of square cells (2D layers) stacked into `nz` layers of cubic
+//! voxels starting at the floor (z = 0). Cell `(ix, iy)` covers
+//! `[origin_x + ix·res, origin_x + (ix+1)·res) × [origin_y + iy·res, origin_y + (iy+1)·res)` and voxel
+//! layer `iz` covers `[iz·res, (iz+1)·res)`. Flat indices are row-major: `iy·nx + ix` for cells and
+//! `(iz·ny + iy)·nx + ix` for voxels, so that one horizontal layer is contiguous.
+
+use nalgebra::{Point2, Point3};
+use serde::Serialize;
+
+/// A 2D cell index. Signed so that neighbours of border cells can be formed and then rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub struct Cell {
+    pub x: i32,
+    pub y: i32,
+}
+
+impl Cell {
+    pub const fn new(x: i32, y: i32) -> Self {
+        Cell { x, y }
+    }
+}
+
+/// Offsets of the 8-connected neighbourhood; the first four are the 4-connected ones.
+pub const NEIGHBOURS_8: [(i32, i32); 8] = [
+    (1, 0),
+    (-1, 0),
+    (0, 1),
+    (0, -1),
+    (1, 1),
+    (1, -1),
+    (-1, 1),
+    (-1, -1),
+];
+
+/// Geometry of the 2D layers and the 3D voxel grid that share one footprint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct GridSpec {
+    /// World x of the minimum corner of cell (0, 0), metres.
+    pub origin_x: f64,
+    /// World y of the minimum corner of cell (0, 0), metres.
+    pub origin_y: f64,
+    /// Cell and voxel edge, metres.
+    pub res: f64,
+    pub nx: usize,
+    pub ny: usize,
+    /// Number of voxel layers above the floor.
+    pub nz: usize,
+}
+
+impl GridSpec {
+    /// A grid covering `[min, max]` in x and y (rounded outwards to whole cells) and `[0, top_z]` in z.
+    pub fn covering(min: Point2<f64>, max: Point2<f64>, top_z: f64, res: f64) -> Self {
+        let nx = (((max.x - min.x) / res).ceil() as usize).max(1);
+        let ny = (((max.y - min.y) / res).ceil() as usize).max(1);
+        let nz = ((top_z / res).ceil() as usize).max(1);
+        GridSpec {
+            origin_x: min.x,
+            origin_y: min.y,
+            res,
+            nx,
+            ny,
+            nz,
+        }
+    }
+
+    /// Number of 2D cells.
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Number of 3D voxels.
+    pub fn voxels(&self) -> usize {
+        self.nx * self.ny * self.nz
+    }
+
+    /// Area of one cell, m².
+    pub fn cell_area(&self) -> f64 {
+        self.res * self.res
+    }
+
+    /// Volume of one voxel, m³.
+    pub fn voxel_volume(&self) -> f64 {
+        self.res * self.res * self.res
+    }
+
+    /// The cell containing world point `(x, y)`, whether or not it lies inside the grid.
+    pub fn cell_at(&self, x: f64, y: f64) -> Cell {
+        Cell::new(
+            ((x - self.origin_x) / self.res).floor() as i32,
+            ((y - self.origin_y) / self.res).floor() as i32,
+        )
+    }
+
+    /// The cell containing `p`, or `None` outside the grid.
+    pub fn cell_of(&self, p: Point2<f64>) -> Option<Cell> {
+        let c = self.cell_at(p.x, p.y);
+        self.contains(c).then_some(c)
+    }
+
+    /// Whether `c` lies inside the grid.
+    pub fn contains(&self, c: Cell) -> bool {
+        c.x >= 0 && c.y >= 0 && (c.x as usize) < self.nx && (c.y as usize) < self.ny
+    }
+
+    /// World centre of cell `c`.
+    pub fn center(&self, c: Cell) -> Point2<f64> {
+        Point2::new(
+            self.origin_x + (c.x as f64 + 0.5) * self.res,
+            self.origin_y + (c.y as f64 + 0.5) * self.res,
+        )
+    }
+
+    /// Flat index of an in-grid cell.
+    pub fn index(&self, c: Cell) -> usize {
+        debug_assert!(self.contains(c));
+        c.y as usize * self.nx + c.x as usize
+    }
+
+    /// Flat index of `c`, or `None` outside the grid.
+    pub fn checked_index(&self, c: Cell) -> Option<usize> {
+        self.contains(c).then(|| self.index(c))
+    }
+
+    /// The cell of a flat index.
+    pub fn cell(&self, index: usize) -> Cell {
+        Cell::new((index % self.nx) as i32, (index / self.nx) as i32)
+    }
+
+    /// Voxel layer containing height `z` (may be out of range).
+    pub fn layer_at(&self, z: f64) -> i32 {
+        (z / self.res).floor() as i32
+    }
+
+    /// Height of the centre of voxel layer `iz`.
+    pub fn layer_center(&self, iz: usize) -> f64 {
+        (iz as f64 + 0.5) * self.res
+    }
+
+    /// The layers whose centres lie in `[z_min, z_max]`, clipped to the grid.
+    pub fn layers_in(&self, z_min: f64, z_max: f64) -> std::ops::Range<usize> {
+        let lo = ((z_min / self.res - 0.5).ceil().max(0.0)) as usize;
+        let hi = (((z_max / self.res - 0.5).floor() + 1.0).max(0.0) as usize).min(self.nz);
+        lo.min(hi)..hi
+    }
+
+    /// Flat index of voxel `(c, iz)`; `c` must be in the grid and `iz < nz`.
+    pub fn voxel_index(&self, c: Cell, iz: usize) -> usize {
+        debug_assert!(self.contains(c) && iz < self.nz);
+        (iz * self.ny + c.y as usize) * self.nx + c.x as usize
+    }
+
+    /// Voxel containing world point `p`, or `None` outside the grid.
+    pub fn voxel_of(&self, p: Point3<f64>) -> Option<usize> {
+        let c = self.cell_at(p.x, p.y);
+        let iz = self.layer_at(p.z);
+        (self.contains(c) && iz >= 0 && (iz as usize) < self.nz)
+            .then(|| self.voxel_index(c, iz as usize))
+    }
+
+    /// The (cell index, layer) of a flat voxel index.
+    pub fn voxel_parts(&self, voxel: usize) -> (usize, usize) {
+        let layer_len = self.nx * self.ny;
+        (voxel % layer_len, voxel / layer_len)
+    }
+
+    /// World x, y of the grid's minimum corner and maximum corner.
+    pub fn bounds(&self) -> (Point2<f64>, Point2<f64>) {
+        (
+            Point2::new(self.origin_x, self.origin_y),
+            Point2::new(
+                self.origin_x + self.nx as f64 * self.res,
+                self.origin_y + self.ny as f64 * self.res,
+            ),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> GridSpec {
+        GridSpec::covering(Point2::new(-1.0, 2.0), Point2::new(3.0, 4.05), 1.8, 0.1)
+    }
+
+    #[test]
+    fn covering_rounds_outwards() {
+        let g = spec();
+        assert_eq!((g.nx, g.ny, g.nz), (40, 21, 18));
+    }
+
+    #[test]
+    fn cell_and_center_round_trip() {
+        let g = spec();
+        for idx in [0, 7, 40, 839] {
+            let c = g.cell(idx);
+            assert_eq!(g.index(c), idx);
+            let p = g.center(c);
+            assert_eq!(g.cell_of(p), Some(c));
+        }
+        assert_eq!(g.cell_of(Point2::new(-1.01, 2.5)), None);
+        assert_eq!(g.cell_of(Point2::new(3.0, 2.5)), None);
+    }
+
+    #[test]
+    fn voxel_index_round_trip() {
+        let g = spec();
+        let c = Cell::new(5, 9);
+        let v = g.voxel_index(c, 3);
+        assert_eq!(g.voxel_parts(v), (g.index(c), 3));
+        let p = Point3::new(g.center(c).x, g.center(c).y, g.layer_center(3));
+        assert_eq!(g.voxel_of(p), Some(v));
+        assert_eq!(g.voxel_of(Point3::new(0.0, 3.0, -0.01)), None);
+        assert_eq!(g.voxel_of(Point3::new(0.0, 3.0, 1.8)), None);
+    }
+
+    #[test]
+    fn layers_in_band() {
+        let g = spec();
+        // Centres 0.15 .. 1.75 lie in [0.1, 1.8]: layers 1..=17.
+        assert_eq!(g.layers_in(0.1, 1.8), 1..18);
+        // Robot band [0.1, 1.2]: centres 0.15 .. 1.15.
+        assert_eq!(g.layers_in(0.1, 1.2), 1..12);
+        assert_eq!(g.layers_in(5.0, 6.0), 18..18);
+    }
+}

@@ -1,0 +1,47 @@
+//! tensorscout: a headless simulator and benchmark for autonomous exploration of indoor scenes by a
+//! ground robot with one forward-facing depth camera.
+//!
+//! Data flows one way through the stages, one module each:
+//! `scene` (mesh, ground truth) → `sensor` (depth frames) → `map` (occupancy voxels, 2D layers,
+//! frontiers) → `field` (tensor field and its topology) → `plan` (goals and paths) → `sim` (robot,
+//! motion, the step loop, metrics). `render` draws pictures of any of them.
+
+pub mod config;
+pub mod error;
+pub mod field;
+pub mod grid;
+pub mod map;
+pub mod plan;
+pub mod render;
+pub mod scene;
+pub mod sensor;
+pub mod sim;
+pub mod util;
+
+pub use config::Config;
+pub use error::{Error, Result};
+pub use grid::{Cell, GridSpec};
+
+use serde::{Deserialize, Serialize};
+
+/// A planar pose on the floor: position in metres and heading (yaw about +z) in radians.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose2 {
+    pub x: f64,
+    pub y: f64,
+    pub yaw: f64,
+}
+
+impl Pose2 {
+    pub const fn new(x: f64, y: f64, yaw: f64) -> Self {
+        Pose2 { x, y, yaw }
+    }
+
+    /// The position as a point.
+    pub fn position(&self) -> nalgebra::Point2<f64> {
+        nalgebra::Point2::new(self.x, self.y)
+    }
+}
+
+/// The program version, stored in every result and log.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

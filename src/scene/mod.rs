@@ -1,0 +1,4 @@
+//! Scenes: mesh loading, importers, the generator and the ground truth.
+
+pub mod mesh;
+pub use mesh::TriMesh;
