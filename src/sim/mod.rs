@@ -1,1 +1,9 @@
-//! TODO
+//! The simulator: robot, motion executor, the step loop and its metrics.
+
+pub mod metrics;
+pub mod motion;
+pub mod robot;
+pub mod run;
+
+pub use metrics::{RunResult, Termination};
+pub use run::{run, NoObserver, Observer, RunOutput, StepView, World};

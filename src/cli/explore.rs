@@ -1,0 +1,119 @@
+//! `tensorscout explore`: one run, its metrics, and optionally a picture.
+
+use super::{check_output, parse_spawn, ConfigArgs};
+use anyhow::Result;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use tensorscout::plan::PlannerKind;
+use tensorscout::sim::{self, Observer, StepView, World};
+use tensorscout::{render, scene, Pose2};
+
+#[derive(Args)]
+pub struct ExploreArgs {
+    /// Scene to explore: OBJ or PLY mesh, ROS map `.yaml`, or HouseExpo `.json`.
+    #[arg(long, value_name = "PATH")]
+    scene: PathBuf,
+    /// Exploration planner.
+    #[arg(long, value_enum, default_value_t = PlannerKind::Greedy)]
+    planner: PlannerKind,
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Seed of the run's random stream (overrides the config's `seed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Start pose `X,Y[,YAW]` in metres and radians (default: the scene's own, else automatic).
+    #[arg(long, value_name = "X,Y[,YAW]", value_parser = parse_spawn)]
+    spawn: Option<Pose2>,
+    /// Draw the final map, the path, the start and the end into this PNG.
+    #[arg(long, value_name = "PATH")]
+    png: Option<PathBuf>,
+    /// Print exactly one JSON object with every metric on stdout.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Overwrite output files that already exist.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Shows simulated time and completeness on stderr.
+struct Progress {
+    bar: ProgressBar,
+}
+
+impl Observer for Progress {
+    fn on_step(&mut self, view: &StepView) {
+        if view.step % 50 == 0 {
+            self.bar.set_position(view.time_s as u64);
+            self.bar.set_message(format!(
+                "completeness {:.3}  path {:.1} m",
+                view.completeness, view.path_length_m
+            ));
+        }
+    }
+}
+
+pub fn run(args: ExploreArgs) -> Result<()> {
+    let mut cfg = args.config.load()?;
+    if let Some(seed) = args.seed {
+        cfg.seed = seed;
+    }
+    if let Some(png) = &args.png {
+        check_output(png, args.force)?;
+    }
+    // Fail on an unavailable planner before the scene is loaded.
+    args.planner.build(&cfg)?;
+    let scene = scene::load(&args.scene, &cfg.scene)?;
+    let world = World::new(&scene, &cfg, args.spawn)?;
+
+    let output = if !args.quiet && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(cfg.sim.budget_s as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] sim {pos}/{len} s {bar:30} {msg}")
+                .expect("valid template"),
+        );
+        let mut progress = Progress { bar };
+        let out = sim::run(&scene, world, &cfg, args.planner, &mut progress);
+        progress.bar.finish_and_clear();
+        out?
+    } else {
+        sim::run(&scene, world, &cfg, args.planner, &mut sim::NoObserver)?
+    };
+
+    if let Some(png) = &args.png {
+        render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
+    }
+    let r = &output.result;
+    if args.json {
+        println!("{}", serde_json::to_string(r)?);
+    } else {
+        println!("scene          {} ({})", r.scene, args.scene.display());
+        println!("planner        {}  seed {}", r.planner, r.seed);
+        println!("termination    {}", r.termination.as_str());
+        println!(
+            "completeness   {:.3}  ({:.2} of {:.2} m³ explored)",
+            r.completeness, r.explored_volume_m3, r.explorable_volume_m3
+        );
+        println!("surface        {:.3}", r.surface_coverage);
+        println!("path length    {:.1} m", r.path_length_m);
+        println!(
+            "time           {:.1} s simulated, {:.2} s wall, {:.0}× real time",
+            r.sim_time_s, r.wall_time_s, r.real_time_factor
+        );
+        println!("collisions     {}", r.collisions);
+        for (stage, s) in &r.timings_ms {
+            println!(
+                "  {stage:<7} mean {:.3} ms  p50 {:.3}  p95 {:.3}  max {:.3}",
+                s.mean, s.p50, s.p95, s.max
+            );
+        }
+    }
+    if let Some(e) = &r.error {
+        return Err(tensorscout::Error::Runtime(e.clone()).into());
+    }
+    Ok(())
+}

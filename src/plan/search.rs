@@ -1,0 +1,391 @@
+//! Grid search on the 2D traversable layer: A* (8-connected, octile heuristic) and a one-to-many
+//! Dijkstra distance field.
+//!
+//! Both work on flat arrays owned by a reusable [`Search`] workspace: a generation stamp marks which
+//! entries are valid for the current query, so no per-query clearing and no per-node allocation.
+//! Diagonal moves are allowed only when both orthogonal neighbours are passable, so paths never cut
+//! the corner of a blocked cell.
+
+use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+const SQRT2: f32 = std::f32::consts::SQRT_2;
+
+/// A heap entry: priority (f for A*, g for Dijkstra) and cell; ordered as a min-heap with the cell
+/// index breaking ties, so the expansion order is fully deterministic.
+#[derive(Clone, Copy, PartialEq)]
+struct Entry {
+    priority: f32,
+    cell: u32,
+}
+
+impl Eq for Entry {}
+
+impl Ord for Entry {
+    fn cmp(&self, other: &Self) -> Ordering {
+        other
+            .priority
+            .total_cmp(&self.priority)
+            .then_with(|| other.cell.cmp(&self.cell))
+    }
+}
+
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// A found path: the cells from start to goal, and its length in metres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridPath {
+    pub cells: Vec<Cell>,
+    pub length_m: f64,
+}
+
+/// A reusable search workspace for one grid size.
+pub struct Search {
+    cells: usize,
+    generation: u32,
+    stamp: Vec<u32>,
+    closed: Vec<u32>,
+    g: Vec<f32>,
+    parent: Vec<u32>,
+    heap: BinaryHeap<Entry>,
+    /// Number of A* queries answered, for reports.
+    pub astar_calls: u64,
+}
+
+/// Distances in metres from one source to every cell, with parents for path extraction.
+#[derive(Clone, Debug)]
+pub struct DistanceField {
+    pub source: usize,
+    /// Path length from the source, metres; `f32::INFINITY` where unreachable.
+    pub dist: Vec<f32>,
+    parent: Vec<u32>,
+}
+
+impl DistanceField {
+    /// Distance to `cell` in metres, or `None` if unreachable.
+    pub fn distance(&self, cell: usize) -> Option<f32> {
+        let d = self.dist[cell];
+        d.is_finite().then_some(d)
+    }
+
+    /// The path from the source to `target` (inclusive), or `None` if unreachable.
+    pub fn path_to(&self, grid: &GridSpec, target: usize) -> Option<GridPath> {
+        let length = self.distance(target)?;
+        let mut cells = vec![grid.cell(target)];
+        let mut at = target;
+        while at != self.source {
+            at = self.parent[at] as usize;
+            cells.push(grid.cell(at));
+        }
+        cells.reverse();
+        Some(GridPath {
+            cells,
+            length_m: length as f64,
+        })
+    }
+}
+
+impl Search {
+    /// A workspace for grids of `grid.cells()` cells.
+    pub fn new(grid: &GridSpec) -> Self {
+        let n = grid.cells();
+        Search {
+            cells: n,
+            generation: 0,
+            stamp: vec![0; n],
+            closed: vec![0; n],
+            g: vec![f32::INFINITY; n],
+            parent: vec![u32::MAX; n],
+            heap: BinaryHeap::new(),
+            astar_calls: 0,
+        }
+    }
+
+    fn begin(&mut self, grid: &GridSpec) {
+        assert_eq!(grid.cells(), self.cells, "search workspace built for another grid");
+        self.heap.clear();
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            // Wrapped: stale stamps could alias the new generation.
+            self.stamp.fill(0);
+            self.closed.fill(0);
+            self.generation = 1;
+        }
+    }
+
+    fn g_of(&self, i: usize) -> f32 {
+        if self.stamp[i] == self.generation {
+            self.g[i]
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Relaxes the neighbours of `at`; `push` receives each improved neighbour and its new g.
+    fn expand(
+        &mut self,
+        grid: &GridSpec,
+        passable: &impl Fn(usize) -> bool,
+        at: usize,
+        mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
+    ) {
+        let c = grid.cell(at);
+        let g_at = self.g[at];
+        let res = grid.res as f32;
+        let mut open4 = [false; 4];
+        for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
+            let n = Cell::new(c.x + dx, c.y + dy);
+            let Some(ni) = grid.checked_index(n) else {
+                continue;
+            };
+            let ok = passable(ni);
+            if k < 4 {
+                open4[k] = ok;
+            } else {
+                // Diagonal: both orthogonal neighbours must be open (no corner cutting).
+                let ox = if dx > 0 { 0 } else { 1 };
+                let oy = if dy > 0 { 2 } else { 3 };
+                if !(open4[ox] && open4[oy]) {
+                    continue;
+                }
+            }
+            if !ok || self.closed[ni] == self.generation {
+                continue;
+            }
+            let step = if k < 4 { res } else { res * SQRT2 };
+            let g_new = g_at + step;
+            if g_new < self.g_of(ni) {
+                self.stamp[ni] = self.generation;
+                self.g[ni] = g_new;
+                self.parent[ni] = at as u32;
+                push(&mut self.heap, ni, g_new);
+            }
+        }
+    }
+
+    /// Shortest 8-connected path from `start` to `goal` over cells where `passable` holds.
+    /// The start cell itself need not be passable (the robot may stand in an inflated band).
+    pub fn astar(
+        &mut self,
+        grid: &GridSpec,
+        passable: impl Fn(usize) -> bool,
+        start: usize,
+        goal: usize,
+    ) -> Option<GridPath> {
+        self.begin(grid);
+        self.astar_calls += 1;
+        if start != goal && !passable(goal) {
+            return None;
+        }
+        let gc = grid.cell(goal);
+        let res = grid.res as f32;
+        let heuristic = move |i: usize| {
+            let c = grid.cell(i);
+            let dx = (c.x - gc.x).unsigned_abs() as f32;
+            let dy = (c.y - gc.y).unsigned_abs() as f32;
+            res * (dx.max(dy) + (SQRT2 - 1.0) * dx.min(dy))
+        };
+        self.stamp[start] = self.generation;
+        self.g[start] = 0.0;
+        self.parent[start] = start as u32;
+        self.heap.push(Entry {
+            priority: heuristic(start),
+            cell: start as u32,
+        });
+        while let Some(Entry { cell, .. }) = self.heap.pop() {
+            let at = cell as usize;
+            if self.closed[at] == self.generation {
+                continue;
+            }
+            self.closed[at] = self.generation;
+            if at == goal {
+                return Some(self.extract(grid, start, goal));
+            }
+            self.expand(grid, &passable, at, |heap, ni, g| {
+                heap.push(Entry {
+                    priority: g + heuristic(ni),
+                    cell: ni as u32,
+                })
+            });
+        }
+        None
+    }
+
+    fn extract(&self, grid: &GridSpec, start: usize, goal: usize) -> GridPath {
+        let mut cells = vec![grid.cell(goal)];
+        let mut at = goal;
+        while at != start {
+            at = self.parent[at] as usize;
+            cells.push(grid.cell(at));
+        }
+        cells.reverse();
+        GridPath {
+            cells,
+            length_m: self.g[goal] as f64,
+        }
+    }
+
+    /// Dijkstra distance field from `source` over passable cells (the source need not be passable),
+    /// stopping once every remaining cell is farther than `max_dist_m`.
+    pub fn distance_field(
+        &mut self,
+        grid: &GridSpec,
+        passable: impl Fn(usize) -> bool,
+        source: usize,
+        max_dist_m: f32,
+    ) -> DistanceField {
+        self.begin(grid);
+        self.stamp[source] = self.generation;
+        self.g[source] = 0.0;
+        self.parent[source] = source as u32;
+        self.heap.push(Entry {
+            priority: 0.0,
+            cell: source as u32,
+        });
+        while let Some(Entry { priority, cell }) = self.heap.pop() {
+            let at = cell as usize;
+            if self.closed[at] == self.generation {
+                continue;
+            }
+            if priority > max_dist_m {
+                break;
+            }
+            self.closed[at] = self.generation;
+            self.expand(grid, &passable, at, |heap, ni, g| {
+                heap.push(Entry {
+                    priority: g,
+                    cell: ni as u32,
+                })
+            });
+        }
+        let mut dist = vec![f32::INFINITY; self.cells];
+        let mut parent = vec![u32::MAX; self.cells];
+        for i in 0..self.cells {
+            if self.closed[i] == self.generation {
+                dist[i] = self.g[i];
+                parent[i] = self.parent[i];
+            }
+        }
+        DistanceField {
+            source,
+            dist,
+            parent,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point2;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn grid(n: usize) -> GridSpec {
+        GridSpec::covering(
+            Point2::new(0.0, 0.0),
+            Point2::new(n as f64 * 0.1, n as f64 * 0.1),
+            1.0,
+            0.1,
+        )
+    }
+
+    #[test]
+    fn open_grid_distance_is_octile() {
+        let g = grid(20);
+        let mut s = Search::new(&g);
+        let start = g.index(Cell::new(1, 2));
+        let goal = g.index(Cell::new(11, 6));
+        let p = s.astar(&g, |_| true, start, goal).unwrap();
+        let expected = 0.1 * (6.0 + 4.0 * 2f64.sqrt());
+        assert!((p.length_m - expected).abs() < 1e-5);
+        assert_eq!(p.cells.first(), Some(&Cell::new(1, 2)));
+        assert_eq!(p.cells.last(), Some(&Cell::new(11, 6)));
+        // Consecutive cells are 8-neighbours.
+        for w in p.cells.windows(2) {
+            assert!((w[0].x - w[1].x).abs() <= 1 && (w[0].y - w[1].y).abs() <= 1);
+        }
+    }
+
+    #[test]
+    fn wall_forces_detour_and_blocked_goal_fails() {
+        let g = grid(10);
+        // Wall at x = 5 for y in 0..9, open at y = 9.
+        let wall = |i: usize| {
+            let c = g.cell(i);
+            !(c.x == 5 && c.y < 9)
+        };
+        let mut s = Search::new(&g);
+        let p = s
+            .astar(&g, wall, g.index(Cell::new(2, 0)), g.index(Cell::new(8, 0)))
+            .unwrap();
+        assert!(p.cells.iter().any(|c| c.x == 5 && c.y == 9));
+        assert!(p.cells.iter().all(|c| wall(g.index(*c))));
+        let closed = |i: usize| g.cell(i).x != 5;
+        assert!(s
+            .astar(&g, closed, g.index(Cell::new(2, 0)), g.index(Cell::new(8, 0)))
+            .is_none());
+    }
+
+    #[test]
+    fn no_corner_cutting() {
+        let g = grid(3);
+        // Block (1,0) and (0,1): the diagonal from (0,0) to (1,1) must not be taken.
+        let open = |i: usize| {
+            let c = g.cell(i);
+            !((c.x == 1 && c.y == 0) || (c.x == 0 && c.y == 1))
+        };
+        let mut s = Search::new(&g);
+        assert!(s
+            .astar(&g, open, g.index(Cell::new(0, 0)), g.index(Cell::new(1, 1)))
+            .is_none());
+    }
+
+    /// A* lengths equal Dijkstra distances on random obstacle grids, and Dijkstra paths have the
+    /// length they claim.
+    #[test]
+    fn astar_agrees_with_dijkstra_on_random_grids() {
+        let g = grid(30);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut s = Search::new(&g);
+        for _ in 0..20 {
+            let blocked: Vec<bool> = (0..g.cells()).map(|_| rng.random::<f64>() < 0.25).collect();
+            let open = |i: usize| !blocked[i];
+            let src = (0..g.cells()).find(|&i| open(i)).unwrap();
+            let df = s.distance_field(&g, open, src, f32::INFINITY);
+            for _ in 0..10 {
+                let t = rng.random_range(0..g.cells());
+                let a = s.astar(&g, open, src, t);
+                match (a, df.distance(t)) {
+                    (Some(p), Some(d)) => {
+                        assert!((p.length_m - d as f64).abs() < 1e-4);
+                        let via = df.path_to(&g, t).unwrap();
+                        let mut len = 0.0;
+                        for w in via.cells.windows(2) {
+                            let diag = w[0].x != w[1].x && w[0].y != w[1].y;
+                            len += if diag { 0.1 * 2f64.sqrt() } else { 0.1 };
+                        }
+                        assert!((len - d as f64).abs() < 1e-4);
+                    }
+                    (None, None) => {}
+                    (a, d) => panic!("A* {:?} vs Dijkstra {:?} for target {t}", a.map(|p| p.length_m), d),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn distance_field_respects_limit() {
+        let g = grid(40);
+        let mut s = Search::new(&g);
+        let src = g.index(Cell::new(0, 0));
+        let df = s.distance_field(&g, |_| true, src, 1.0);
+        assert!(df.distance(g.index(Cell::new(5, 0))).is_some());
+        assert!(df.distance(g.index(Cell::new(30, 0))).is_none());
+    }
+}

@@ -1,0 +1,187 @@
+//! The motion executor shared by every planner: pure-pursuit path following with turning in place,
+//! full-turn look-arounds, and a guard that never drives the disc toward a known obstacle.
+
+use super::robot::Command;
+use crate::config::Config;
+use crate::grid::Cell;
+use crate::map::Map;
+use crate::plan::Action;
+use crate::util::wrap_angle;
+use crate::Pose2;
+use nalgebra::Point2;
+use std::f64::consts::TAU;
+
+/// How the current action is going.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MotionStatus {
+    /// Still executing.
+    Busy,
+    /// Finished: the path's end was reached (and the look-around done, if asked).
+    Done,
+    /// A known obstacle blocks the way; the planner must re-plan.
+    Blocked,
+}
+
+enum Phase {
+    Idle,
+    Following {
+        path: Vec<Point2<f64>>,
+        /// Index of the path point the robot has progressed to.
+        progress: usize,
+        look_on_arrival: bool,
+    },
+    Looking {
+        turned_rad: f64,
+    },
+}
+
+/// Turns an [`Action`] into velocity commands, step by step.
+pub struct MotionExecutor {
+    phase: Phase,
+    dt: f64,
+    radius: f64,
+    max_speed: f64,
+    max_turn: f64,
+    turn_in_place: f64,
+    lookahead: f64,
+    goal_tolerance: f64,
+    slow_clearance: f64,
+}
+
+/// Gain of the proportional heading controller, 1/s.
+const HEADING_GAIN: f64 = 2.0;
+/// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
+const MIN_SPEED_FRACTION: f64 = 0.3;
+
+impl MotionExecutor {
+    pub fn new(cfg: &Config) -> Self {
+        MotionExecutor {
+            phase: Phase::Idle,
+            dt: cfg.sim.dt_s,
+            radius: cfg.robot.radius_m,
+            max_speed: cfg.robot.max_speed_mps,
+            max_turn: cfg.robot.max_turn_rate_rps,
+            turn_in_place: cfg.motion.turn_in_place_rad,
+            lookahead: cfg.motion.lookahead_m,
+            goal_tolerance: cfg.motion.goal_tolerance_m,
+            slow_clearance: cfg.motion.slow_clearance_m,
+        }
+    }
+
+    /// Starts executing `action` (replacing any action in progress).
+    pub fn start(&mut self, action: &Action) {
+        self.phase = match action {
+            Action::Follow {
+                path,
+                look_on_arrival,
+            } if !path.is_empty() => Phase::Following {
+                path: path.clone(),
+                progress: 0,
+                look_on_arrival: *look_on_arrival,
+            },
+            Action::Follow { .. } | Action::Complete => Phase::Idle,
+            Action::LookAround => Phase::Looking { turned_rad: 0.0 },
+        };
+    }
+
+    /// Whether an action is in progress.
+    pub fn is_busy(&self) -> bool {
+        !matches!(self.phase, Phase::Idle)
+    }
+
+    /// The command for this step and the status of the action.
+    pub fn step(&mut self, pose: Pose2, map: &Map) -> (Command, MotionStatus) {
+        match &mut self.phase {
+            Phase::Idle => (Command::default(), MotionStatus::Done),
+            Phase::Looking { turned_rad } => {
+                let w = self.max_turn.min((TAU - *turned_rad) / self.dt);
+                *turned_rad += w * self.dt;
+                if *turned_rad >= TAU - 1e-9 {
+                    self.phase = Phase::Idle;
+                    (Command { v: 0.0, w }, MotionStatus::Done)
+                } else {
+                    (Command { v: 0.0, w }, MotionStatus::Busy)
+                }
+            }
+            Phase::Following {
+                path,
+                progress,
+                look_on_arrival,
+            } => {
+                let here = pose.position();
+                let goal = *path.last().expect("non-empty path");
+                if (goal - here).norm() <= self.goal_tolerance {
+                    self.phase = if *look_on_arrival {
+                        Phase::Looking { turned_rad: 0.0 }
+                    } else {
+                        Phase::Idle
+                    };
+                    let status = if self.is_busy() {
+                        MotionStatus::Busy
+                    } else {
+                        MotionStatus::Done
+                    };
+                    return (Command::default(), status);
+                }
+                // Advance progress to the nearest point within a short window ahead.
+                let window = (*progress + 20).min(path.len());
+                let nearest = (*progress..window)
+                    .min_by(|&a, &b| {
+                        (path[a] - here)
+                            .norm_squared()
+                            .total_cmp(&(path[b] - here).norm_squared())
+                    })
+                    .unwrap_or(*progress);
+                *progress = nearest;
+                let target = path[*progress..]
+                    .iter()
+                    .find(|p| (*p - here).norm() >= self.lookahead)
+                    .copied()
+                    .unwrap_or(goal);
+                let d = target - here;
+                let err = wrap_angle(d.y.atan2(d.x) - pose.yaw);
+                let w = (HEADING_GAIN * err).clamp(-self.max_turn, self.max_turn);
+                if err.abs() > self.turn_in_place {
+                    return (Command { v: 0.0, w }, MotionStatus::Busy);
+                }
+                let clearance = obstacle_clearance(map, here, self.slow_clearance);
+                let slow = if self.slow_clearance > self.radius {
+                    ((clearance - self.radius) / (self.slow_clearance - self.radius))
+                        .clamp(MIN_SPEED_FRACTION, 1.0)
+                } else {
+                    1.0
+                };
+                let to_goal = (goal - here).norm();
+                let v = self.max_speed * err.cos().max(0.0) * slow * (to_goal / 0.5).min(1.0);
+                let next = super::robot::integrate(pose, v, w, self.dt);
+                let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
+                let limit = self.radius + 0.5 * map.grid().res;
+                if next_clearance < limit && next_clearance < clearance {
+                    self.phase = Phase::Idle;
+                    return (Command::default(), MotionStatus::Blocked);
+                }
+                (Command { v, w }, MotionStatus::Busy)
+            }
+        }
+    }
+}
+
+/// Distance from `p` to the nearest known obstacle cell centre, searched within `max_m`
+/// (returns `max_m` when none is nearer).
+pub fn obstacle_clearance(map: &Map, p: Point2<f64>, max_m: f64) -> f64 {
+    let grid = map.grid();
+    let c = grid.cell_at(p.x, p.y);
+    let r = (max_m / grid.res).ceil() as i32;
+    let mut best = max_m * max_m;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let n = Cell::new(c.x + dx, c.y + dy);
+            if let Some(i) = grid.checked_index(n) {
+                if map.is_obstacle(i) {
+                    best = best.min((grid.center(n) - p).norm_squared());
+                }
+            }
+        }
+    }
+    best.sqrt()
+}

@@ -1,0 +1,286 @@
+//! The step loop: sense → map → field → plan → motion → collision check → metrics, at a fixed `dt`.
+
+use super::metrics::{
+    surface_coverage, CurveSample, ExploredVolume, RunResult, StageTimes, Termination,
+};
+use super::motion::{MotionExecutor, MotionStatus};
+use super::robot::Robot;
+use crate::config::Config;
+use crate::map::Map;
+use crate::plan::search::Search;
+use crate::plan::{Action, PlanContext, PlannerKind};
+use crate::scene::{GroundTruth, Scene};
+use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
+use crate::{Pose2, Result};
+use std::time::Instant;
+
+/// What an observer sees after each step (for progress bars and logs).
+pub struct StepView<'a> {
+    pub step: u64,
+    pub time_s: f64,
+    pub budget_s: f64,
+    pub pose: Pose2,
+    pub completeness: f64,
+    pub path_length_m: f64,
+    pub frame: Option<&'a DepthFrame>,
+    pub map: &'a Map,
+}
+
+/// Receives every step of a run; all methods default to doing nothing.
+pub trait Observer {
+    fn on_step(&mut self, _view: &StepView) {}
+}
+
+/// An observer that ignores everything.
+pub struct NoObserver;
+impl Observer for NoObserver {}
+
+/// Everything a run leaves behind: the result, the final map, the trajectory and the ground truth.
+pub struct RunOutput {
+    pub result: RunResult,
+    pub map: Map,
+    pub trajectory: Vec<Pose2>,
+    pub ground_truth: GroundTruth,
+}
+
+/// The world a run happens in: the scene's ground truth and its ray-casting structure, built once.
+pub struct World {
+    pub ground_truth: GroundTruth,
+    pub bvh: MeshBvh,
+}
+
+impl World {
+    /// Voxelises the scene and builds its BVH; `spawn` overrides the scene's own spawn.
+    pub fn new(scene: &Scene, cfg: &Config, spawn: Option<Pose2>) -> Result<World> {
+        let ground_truth = GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg)?;
+        let bvh = MeshBvh::new(&scene.mesh)?;
+        Ok(World { ground_truth, bvh })
+    }
+}
+
+/// Runs one exploration of `scene` with `planner` until it completes, spends its budget or gets stuck.
+pub fn run(
+    scene: &Scene,
+    world: World,
+    cfg: &Config,
+    planner: PlannerKind,
+    observer: &mut dyn Observer,
+) -> Result<RunOutput> {
+    let wall_start = Instant::now();
+    let World { ground_truth: gt, bvh } = world;
+    let grid = gt.grid;
+    let mut planner = planner.build(cfg)?;
+    let mut map = Map::new(grid, cfg);
+    let camera = DepthCamera::new(&cfg.camera);
+    let mut frame = DepthFrame::default();
+    let mut robot = Robot::new(gt.spawn, &cfg.robot);
+    let mut motion = MotionExecutor::new(cfg);
+    let mut search = Search::new(&grid);
+    let mut explored = ExploredVolume::new(&gt);
+    let mut times = StageTimes::default();
+    let mut curve = Vec::new();
+    let mut trajectory = vec![robot.pose];
+
+    let dt = cfg.sim.dt_s;
+    let total_steps = (cfg.sim.budget_s / dt).round() as u64;
+    let camera_period = ((1.0 / (cfg.camera.rate_hz * dt)).round() as u64).max(1);
+    let curve_period = ((cfg.sim.curve_interval_s / dt).round() as u64).max(1);
+    let stuck_steps = (cfg.sim.stuck_timeout_s / dt).round() as u64;
+    let collision_top = cfg.robot.height_m.min(cfg.map.band_max_m);
+
+    let mut action = if cfg.sim.initial_look_around {
+        Action::LookAround
+    } else {
+        Action::Follow {
+            path: Vec::new(),
+            look_on_arrival: false,
+        }
+    };
+    motion.start(&action);
+    let mut need_plan = !motion.is_busy();
+    let mut termination = Termination::Budget;
+    let mut error = None;
+    let mut collisions = 0u64;
+    let mut replans = 0u64;
+    let mut last_gain_step = 0u64;
+    let mut volume_at_last_gain = 0.0;
+    let mut step = 0u64;
+
+    curve.push(CurveSample {
+        t_s: 0.0,
+        path_length_m: 0.0,
+        explored_volume_m3: 0.0,
+        completeness: 0.0,
+    });
+
+    while step < total_steps {
+        let time_s = step as f64 * dt;
+        // Sense.
+        let t0 = Instant::now();
+        let fired = step % camera_period == 0;
+        if fired {
+            camera.capture_into(&bvh, robot.pose, &mut frame);
+        }
+        let t1 = Instant::now();
+        // Map.
+        if fired {
+            let update = map.integrate(&frame);
+            explored.add(&gt, &update.newly_known);
+        }
+        map.clear_footprint(robot.pose.x, robot.pose.y, cfg.robot.radius_m);
+        let t2 = Instant::now();
+        // Field: the tensor-field planners update it here; GREEDY does not use one.
+        let t3 = Instant::now();
+        // Plan.
+        {
+            let mut ctx = PlanContext {
+                map: &map,
+                pose: robot.pose,
+                time_s,
+                cfg,
+                search: &mut search,
+            };
+            if !need_plan && planner.is_outdated(&ctx, &action) {
+                planner.action_finished(&ctx, false);
+                need_plan = true;
+            }
+            if need_plan {
+                replans += 1;
+                match planner.plan(&mut ctx) {
+                    Ok(Action::Complete) => {
+                        termination = Termination::Complete;
+                    }
+                    Ok(a) => {
+                        action = a;
+                        motion.start(&action);
+                        need_plan = false;
+                    }
+                    Err(e) => {
+                        termination = Termination::Error;
+                        error = Some(e.to_string());
+                    }
+                }
+            }
+        }
+        let t4 = Instant::now();
+        if matches!(termination, Termination::Complete | Termination::Error) {
+            record(&mut times, [t0, t1, t2, t3, t4, t4]);
+            break;
+        }
+        // Motion.
+        let (cmd, status) = motion.step(robot.pose, &map);
+        robot.apply(cmd, dt);
+        if robot.pose.x.is_nan() || robot.pose.y.is_nan() {
+            return Err(crate::Error::Runtime("robot pose became NaN".into()));
+        }
+        if bvh.cylinder_intersects(
+            robot.pose.x,
+            robot.pose.y,
+            cfg.robot.radius_m,
+            cfg.map.band_min_m,
+            collision_top,
+        ) {
+            collisions += 1;
+        }
+        match status {
+            MotionStatus::Busy => {}
+            MotionStatus::Done | MotionStatus::Blocked => {
+                let ctx = PlanContext {
+                    map: &map,
+                    pose: robot.pose,
+                    time_s,
+                    cfg,
+                    search: &mut search,
+                };
+                planner.action_finished(&ctx, status == MotionStatus::Done);
+                need_plan = true;
+            }
+        }
+        let t5 = Instant::now();
+        record(&mut times, [t0, t1, t2, t3, t4, t5]);
+        trajectory.push(robot.pose);
+        step += 1;
+
+        // Metrics and termination.
+        let volume = explored.volume_m3();
+        if volume - volume_at_last_gain >= cfg.sim.stuck_min_gain_m3 {
+            volume_at_last_gain = volume;
+            last_gain_step = step;
+        }
+        if step % curve_period == 0 {
+            curve.push(CurveSample {
+                t_s: step as f64 * dt,
+                path_length_m: robot.path_length_m,
+                explored_volume_m3: volume,
+                completeness: explored.completeness(),
+            });
+        }
+        observer.on_step(&StepView {
+            step,
+            time_s: step as f64 * dt,
+            budget_s: cfg.sim.budget_s,
+            pose: robot.pose,
+            completeness: explored.completeness(),
+            path_length_m: robot.path_length_m,
+            frame: fired.then_some(&frame),
+            map: &map,
+        });
+        if step - last_gain_step >= stuck_steps {
+            termination = Termination::Stuck;
+            break;
+        }
+    }
+
+    let sim_time_s = step as f64 * dt;
+    if curve.last().is_none_or(|c| c.t_s < sim_time_s) {
+        curve.push(CurveSample {
+            t_s: sim_time_s,
+            path_length_m: robot.path_length_m,
+            explored_volume_m3: explored.volume_m3(),
+            completeness: explored.completeness(),
+        });
+    }
+    let wall_time_s = wall_start.elapsed().as_secs_f64();
+    let result = RunResult {
+        scene: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        planner: planner.name().to_string(),
+        seed: cfg.seed,
+        spawn: gt.spawn,
+        termination,
+        error,
+        completeness: explored.completeness(),
+        explored_volume_m3: explored.volume_m3(),
+        explorable_volume_m3: gt.explorable_volume_m3(),
+        surface_coverage: surface_coverage(&gt, &map),
+        path_length_m: robot.path_length_m,
+        sim_time_s,
+        wall_time_s,
+        real_time_factor: if wall_time_s > 0.0 {
+            sim_time_s / wall_time_s
+        } else {
+            0.0
+        },
+        collisions,
+        steps: step,
+        replans,
+        astar_calls: search.astar_calls,
+        timings_ms: times.summary(),
+        version: crate::VERSION.to_string(),
+        config_hash: cfg.hash(),
+        curve,
+    };
+    Ok(RunOutput {
+        result,
+        map,
+        trajectory,
+        ground_truth: gt,
+    })
+}
+
+/// Records the five stage durations delimited by six instants.
+fn record(times: &mut StageTimes, t: [Instant; 6]) {
+    for stage in 0..5 {
+        times.record(stage, (t[stage + 1] - t[stage]).as_secs_f64() * 1e3);
+    }
+}
