@@ -507,8 +507,9 @@ mod tests {
         let cfg = Config::default();
         let mesh = box_room();
         let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
-        // Grid: 4.2 × 3.2 m + 0.5 m margin each side → 52 × 42 cells, 18 layers.
-        assert_eq!((gt.grid.nx, gt.grid.ny, gt.grid.nz), (52, 42, 18));
+        // Grid: 4.2 × 3.2 m + 0.5 m margin each side → 52 × 42 cells, 18 layers; 3.2 in f32 is
+        // 3.2000000477, so y rounds outwards to one more (empty) row.
+        assert_eq!((gt.grid.nx, gt.grid.ny, gt.grid.nz), (52, 43, 18));
         // Inner wall faces at x = 0.1 and x = 4.1 mark cells ix 6 (upper side) and 46; the free
         // interior without obstacle columns is ix 7..=45 (39) × iy 7..=35 (29); the region grows it
         // by one ring: 41 × 31.
