@@ -19,7 +19,13 @@ fn main() -> tensorscout::Result<()> {
         let g = generate(style, seed, area)?;
         let path = out.join(format!("{name}.obj"));
         write_obj(&g.mesh, Some(g.spawn), &g.header(), &path)?;
-        report(&path, &cfg, &format!("generated:{}", style.name()), Some(g.rooms.len()), &g.features.join(", "))?;
+        report(
+            &path,
+            &cfg,
+            &format!("generated:{}", style.name()),
+            Some(g.rooms.len()),
+            &g.features.join(", "),
+        )?;
     }
     for (name, source, header, rooms, features) in [
         (
@@ -53,11 +59,30 @@ fn round3(v: f64) -> f64 {
 }
 
 /// Reloads a written scene, validates its spawn and prints a table row.
-fn report(path: &Path, cfg: &Config, source: &str, rooms: Option<usize>, features: &str) -> tensorscout::Result<()> {
+fn report(
+    path: &Path,
+    cfg: &Config,
+    source: &str,
+    rooms: Option<usize>,
+    features: &str,
+) -> tensorscout::Result<()> {
+    let t0 = std::time::Instant::now();
     let s = scene::load(path, &cfg.scene)?;
+    let t1 = std::time::Instant::now();
     let gt = GroundTruth::build(&s.mesh, s.spawn, cfg)?;
+    eprintln!(
+        "{}: load {:.1} ms, ground truth {:.1} ms ({} × {} × {} voxels)",
+        s.name,
+        (t1 - t0).as_secs_f64() * 1e3,
+        t1.elapsed().as_secs_f64() * 1e3,
+        gt.grid.nx,
+        gt.grid.ny,
+        gt.grid.nz
+    );
     let i = info(&s, &gt);
-    let c = gt.grid.index(gt.grid.cell_of(gt.spawn.position()).expect("validated"));
+    let c = gt
+        .grid
+        .index(gt.grid.cell_of(gt.spawn.position()).expect("validated"));
     let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     println!(
         "| `{}` | {} | {:.1} × {:.1} | {:.0} | {} | {} | ({:.2}, {:.2}), clearance {:.2} m | {} | {} KB |",

@@ -228,8 +228,7 @@ mod tests {
                 }
             }
         }
-        for i in 0..nx * ny {
-            assert_eq!(covered[i], mask[i] as u8, "cell {i}");
-        }
+        let expected: Vec<u8> = mask.iter().map(|&m| m as u8).collect();
+        assert_eq!(covered, expected);
     }
 }

@@ -39,7 +39,12 @@ pub enum Style {
 }
 
 impl Style {
-    pub const ALL: [Style; 4] = [Style::Apartment, Style::Office, Style::Corridor, Style::Warehouse];
+    pub const ALL: [Style; 4] = [
+        Style::Apartment,
+        Style::Office,
+        Style::Corridor,
+        Style::Warehouse,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -231,9 +236,24 @@ fn layout(style: Style, area_m2: f64, rng: &mut ChaCha8Rng) -> Plan {
             let w_m = area_m2 / h_m;
             let (w, h) = (cells(w_m), cells(h_m));
             let (dc, cc) = (cells(d), cells(2.0));
-            let bottom = Rect { x0: WALL, y0: WALL, x1: w - WALL, y1: WALL + dc };
-            let corridor = Rect { x0: WALL, y0: bottom.y1 + WALL, x1: w - WALL, y1: bottom.y1 + WALL + cc };
-            let top = Rect { x0: WALL, y0: corridor.y1 + WALL, x1: w - WALL, y1: h - WALL };
+            let bottom = Rect {
+                x0: WALL,
+                y0: WALL,
+                x1: w - WALL,
+                y1: WALL + dc,
+            };
+            let corridor = Rect {
+                x0: WALL,
+                y0: bottom.y1 + WALL,
+                x1: w - WALL,
+                y1: bottom.y1 + WALL + cc,
+            };
+            let top = Rect {
+                x0: WALL,
+                y0: corridor.y1 + WALL,
+                x1: w - WALL,
+                y1: h - WALL,
+            };
             let mut rooms = vec![corridor];
             for strip in [bottom, top] {
                 rooms.extend(split_along_x(strip, cells(3.0), cells(4.5), rng));
@@ -244,7 +264,12 @@ fn layout(style: Style, area_m2: f64, rng: &mut ChaCha8Rng) -> Plan {
             let aspect = rng.random_range(1.0..1.5);
             let w_m = (area_m2 * aspect).sqrt();
             let (w, h) = (cells(w_m), cells(area_m2 / w_m));
-            let inner = Rect { x0: WALL, y0: WALL, x1: w - WALL, y1: h - WALL };
+            let inner = Rect {
+                x0: WALL,
+                y0: WALL,
+                x1: w - WALL,
+                y1: h - WALL,
+            };
             match style {
                 Style::Apartment => (w, h, bsp(inner, 15.0, cells(2.6), rng), None),
                 Style::Office => {
@@ -306,7 +331,11 @@ fn split_along_x(strip: Rect, min: i32, max: i32, rng: &mut ChaCha8Rng) -> Vec<R
     let mut x = strip.x0;
     while strip.x1 - x > max + WALL + min {
         let width = rng.random_range(min..=max);
-        rooms.push(Rect { x0: x, x1: x + width, ..strip });
+        rooms.push(Rect {
+            x0: x,
+            x1: x + width,
+            ..strip
+        });
         x += width + WALL;
     }
     rooms.push(Rect { x0: x, ..strip });
@@ -322,9 +351,21 @@ fn bsp(r: Rect, target_m2: f64, min: i32, rng: &mut ChaCha8Rng) -> Vec<Rect> {
     }
     let s = rng.random_range(min..=len - min - WALL);
     let (a, b) = if along_x {
-        (Rect { x1: r.x0 + s, ..r }, Rect { x0: r.x0 + s + WALL, ..r })
+        (
+            Rect { x1: r.x0 + s, ..r },
+            Rect {
+                x0: r.x0 + s + WALL,
+                ..r
+            },
+        )
     } else {
-        (Rect { y1: r.y0 + s, ..r }, Rect { y0: r.y0 + s + WALL, ..r })
+        (
+            Rect { y1: r.y0 + s, ..r },
+            Rect {
+                y0: r.y0 + s + WALL,
+                ..r
+            },
+        )
     };
     let mut out = bsp(a, target_m2, min, rng);
     out.extend(bsp(b, target_m2, min, rng));
@@ -347,14 +388,24 @@ impl Plan {
                     let (lo, hi) = span(a.y0, a.y1, b.y0, b.y1);
                     (hi - lo >= DOOR + 2 * DOOR_MARGIN).then(|| {
                         let y = rng.random_range(lo + DOOR_MARGIN..=hi - DOOR_MARGIN - DOOR);
-                        Rect { x0, y0: y, x1: x0 + WALL, y1: y + DOOR }
+                        Rect {
+                            x0,
+                            y0: y,
+                            x1: x0 + WALL,
+                            y1: y + DOOR,
+                        }
                     })
                 } else if a.y1 + WALL == b.y0 || b.y1 + WALL == a.y0 {
                     let y0 = if a.y1 + WALL == b.y0 { a.y1 } else { b.y1 };
                     let (lo, hi) = span(a.x0, a.x1, b.x0, b.x1);
                     (hi - lo >= DOOR + 2 * DOOR_MARGIN).then(|| {
                         let x = rng.random_range(lo + DOOR_MARGIN..=hi - DOOR_MARGIN - DOOR);
-                        Rect { x0: x, y0, x1: x + DOOR, y1: y0 + WALL }
+                        Rect {
+                            x0: x,
+                            y0,
+                            x1: x + DOOR,
+                            y1: y0 + WALL,
+                        }
                     })
                 } else {
                     None
@@ -459,9 +510,10 @@ impl Plan {
                 visit(i + w);
             }
         }
-        let all_reached = self.rooms.iter().all(|r| {
-            (r.y0..r.y1).any(|y| (r.x0..r.x1).any(|x| seen[self.cell(x, y)]))
-        });
+        let all_reached = self
+            .rooms
+            .iter()
+            .all(|r| (r.y0..r.y1).any(|y| (r.x0..r.x1).any(|x| seen[self.cell(x, y)])));
         all_reached.then_some(best)
     }
 
@@ -471,9 +523,19 @@ impl Plan {
             .iter()
             .map(|d| {
                 if d.w() == WALL {
-                    Rect { x0: d.x0 - 20, x1: d.x1 + 20, y0: d.y0 - 2, y1: d.y1 + 2 }
+                    Rect {
+                        x0: d.x0 - 20,
+                        x1: d.x1 + 20,
+                        y0: d.y0 - 2,
+                        y1: d.y1 + 2,
+                    }
                 } else {
-                    Rect { x0: d.x0 - 2, x1: d.x1 + 2, y0: d.y0 - 20, y1: d.y1 + 20 }
+                    Rect {
+                        x0: d.x0 - 2,
+                        x1: d.x1 + 2,
+                        y0: d.y0 - 20,
+                        y1: d.y1 + 20,
+                    }
                 }
             })
             .collect()
@@ -522,34 +584,78 @@ fn slab(r: Rect, z0: f64, z1: f64) -> ([f64; 3], [f64; 3]) {
 
 /// A solid box from the floor (beds, sofas, pallets, full-height shelves).
 fn block(kind: &'static str, r: Rect, height: f64) -> Piece {
-    Piece { kind, footprint: r, blocking: vec![r], boxes: vec![slab(r, 0.0, height)] }
+    Piece {
+        kind,
+        footprint: r,
+        blocking: vec![r],
+        boxes: vec![slab(r, 0.0, height)],
+    }
 }
 
 /// A table: a top slab at `top` m on four 0.05 m legs (an overhang above the floor).
 fn table(r: Rect, top: f64) -> Piece {
     let mut boxes = vec![slab(r, top, top + 0.04)];
-    for (lx, ly) in [(r.x0 + 1, r.y0 + 1), (r.x1 - 2, r.y0 + 1), (r.x0 + 1, r.y1 - 2), (r.x1 - 2, r.y1 - 2)] {
-        boxes.push(slab(Rect { x0: lx, y0: ly, x1: lx + 1, y1: ly + 1 }, 0.0, top));
+    for (lx, ly) in [
+        (r.x0 + 1, r.y0 + 1),
+        (r.x1 - 2, r.y0 + 1),
+        (r.x0 + 1, r.y1 - 2),
+        (r.x1 - 2, r.y1 - 2),
+    ] {
+        boxes.push(slab(
+            Rect {
+                x0: lx,
+                y0: ly,
+                x1: lx + 1,
+                y1: ly + 1,
+            },
+            0.0,
+            top,
+        ));
     }
-    Piece { kind: "tables", footprint: r, blocking: vec![r], boxes }
+    Piece {
+        kind: "tables",
+        footprint: r,
+        blocking: vec![r],
+        boxes,
+    }
 }
 
 /// A shelf fixed to the wall between 1.4 and 1.75 m: the robot (1.2 m) passes under it.
 fn wall_shelf(r: Rect) -> Piece {
-    Piece { kind: "wall_shelves", footprint: r, blocking: vec![], boxes: vec![slab(r, 1.4, 1.75)] }
+    Piece {
+        kind: "wall_shelves",
+        footprint: r,
+        blocking: vec![],
+        boxes: vec![slab(r, 1.4, 1.75)],
+    }
 }
 
 /// A row of cubicles: a spine partition with side partitions every 2 m on both sides, a desk in
 /// every bay; partitions 1.2–1.5 m high, 0.05 m thick.
 fn cubicles(x0: i32, y0: i32, bays: i32, height: f64) -> Piece {
     let (bay, depth) = (40, 30); // 2.0 m × 1.5 m
-    let spine = Rect { x0, y0: y0 + depth, x1: x0 + bays * bay + 1, y1: y0 + depth + 1 };
+    let spine = Rect {
+        x0,
+        y0: y0 + depth,
+        x1: x0 + bays * bay + 1,
+        y1: y0 + depth + 1,
+    };
     let mut parts = vec![spine];
     let mut boxes = Vec::new();
     for k in 0..=bays {
         let x = x0 + k * bay;
-        parts.push(Rect { x0: x, y0, x1: x + 1, y1: y0 + depth });
-        parts.push(Rect { x0: x, y0: y0 + depth + 1, x1: x + 1, y1: y0 + 2 * depth + 1 });
+        parts.push(Rect {
+            x0: x,
+            y0,
+            x1: x + 1,
+            y1: y0 + depth,
+        });
+        parts.push(Rect {
+            x0: x,
+            y0: y0 + depth + 1,
+            x1: x + 1,
+            y1: y0 + 2 * depth + 1,
+        });
     }
     for &p in &parts {
         boxes.push(slab(p, 0.0, height));
@@ -558,15 +664,35 @@ fn cubicles(x0: i32, y0: i32, bays: i32, height: f64) -> Piece {
     for k in 0..bays {
         let x = x0 + k * bay + 6;
         for desk in [
-            Rect { x0: x, y0: y0 + depth - 14, x1: x + 28, y1: y0 + depth },
-            Rect { x0: x, y0: y0 + depth + 1, x1: x + 28, y1: y0 + depth + 15 },
+            Rect {
+                x0: x,
+                y0: y0 + depth - 14,
+                x1: x + 28,
+                y1: y0 + depth,
+            },
+            Rect {
+                x0: x,
+                y0: y0 + depth + 1,
+                x1: x + 28,
+                y1: y0 + depth + 15,
+            },
         ] {
             boxes.extend(table(desk, 0.74).boxes);
             blocking.push(desk);
         }
     }
-    let footprint = Rect { x0, y0, x1: x0 + bays * bay + 1, y1: y0 + 2 * depth + 1 };
-    Piece { kind: "cubicles", footprint, blocking, boxes }
+    let footprint = Rect {
+        x0,
+        y0,
+        x1: x0 + bays * bay + 1,
+        y1: y0 + 2 * depth + 1,
+    };
+    Piece {
+        kind: "cubicles",
+        footprint,
+        blocking,
+        boxes,
+    }
 }
 
 /// A `len × depth` rectangle against a random wall of `room` at a random position along it.
@@ -578,10 +704,30 @@ fn against_wall(room: Rect, len: i32, depth: i32, rng: &mut ChaCha8Rng) -> Optio
     }
     let off = rng.random_range(0..=span - len);
     Some(match side {
-        0 => Rect { x0: room.x0 + off, y0: room.y0, x1: room.x0 + off + len, y1: room.y0 + depth },
-        1 => Rect { x0: room.x0 + off, y0: room.y1 - depth, x1: room.x0 + off + len, y1: room.y1 },
-        2 => Rect { x0: room.x0, y0: room.y0 + off, x1: room.x0 + depth, y1: room.y0 + off + len },
-        _ => Rect { x0: room.x1 - depth, y0: room.y0 + off, x1: room.x1, y1: room.y0 + off + len },
+        0 => Rect {
+            x0: room.x0 + off,
+            y0: room.y0,
+            x1: room.x0 + off + len,
+            y1: room.y0 + depth,
+        },
+        1 => Rect {
+            x0: room.x0 + off,
+            y0: room.y1 - depth,
+            x1: room.x0 + off + len,
+            y1: room.y1,
+        },
+        2 => Rect {
+            x0: room.x0,
+            y0: room.y0 + off,
+            x1: room.x0 + depth,
+            y1: room.y0 + off + len,
+        },
+        _ => Rect {
+            x0: room.x1 - depth,
+            y0: room.y0 + off,
+            x1: room.x1,
+            y1: room.y0 + off + len,
+        },
     })
 }
 
@@ -593,7 +739,12 @@ fn free_standing(room: Rect, w: i32, h: i32, gap: i32, rng: &mut ChaCha8Rng) -> 
     }
     let x = rng.random_range(inner.x0..=inner.x1 - w);
     let y = rng.random_range(inner.y0..=inner.y1 - h);
-    Some(Rect { x0: x, y0: y, x1: x + w, y1: y + h })
+    Some(Rect {
+        x0: x,
+        y0: y,
+        x1: x + w,
+        y1: y + h,
+    })
 }
 
 /// The kinds of piece a room may get.
@@ -628,7 +779,12 @@ fn make(kind: Kind, room: Rect, rng: &mut ChaCha8Rng) -> Option<Piece> {
             let h = rng.random_range(1.9..2.2);
             block("full_shelves", against_wall(room, c(len), c(0.4), rng)?, h)
         }
-        Kind::WallShelf => wall_shelf(against_wall(room, c(rng.random_range(1.0..2.0)), c(0.3), rng)?),
+        Kind::WallShelf => wall_shelf(against_wall(
+            room,
+            c(rng.random_range(1.0..2.0)),
+            c(0.3),
+            rng,
+        )?),
     })
 }
 
@@ -653,7 +809,9 @@ fn furnish(plan: &mut Plan, style: Style, rng: &mut ChaCha8Rng) {
             }
             (Style::Office, false) => vec![Kind::Table, Kind::Shelf, Kind::WallShelf, Kind::LowBox],
             (Style::Corridor, true) => vec![Kind::WallShelf, Kind::WallShelf, Kind::LowBox],
-            (Style::Corridor, false) => vec![Kind::Table, Kind::Shelf, Kind::WallShelf, Kind::LowBox],
+            (Style::Corridor, false) => {
+                vec![Kind::Table, Kind::Shelf, Kind::WallShelf, Kind::LowBox]
+            }
             (Style::Warehouse, true) => {
                 place_shelf_rows(plan, room, rng);
                 vec![Kind::LowBox, Kind::LowBox, Kind::LowBox, Kind::WallShelf]
@@ -695,7 +853,11 @@ fn place_cubicles(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
 fn place_shelf_rows(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
     let (depth, aisle, end) = (20, 40, 50);
     let along_x = room.w() >= room.h();
-    let (len, across) = if along_x { (room.w(), room.h()) } else { (room.h(), room.w()) };
+    let (len, across) = if along_x {
+        (room.w(), room.h())
+    } else {
+        (room.h(), room.w())
+    };
     let row_len = len - 2 * end;
     if row_len < 40 {
         return;
@@ -704,9 +866,19 @@ fn place_shelf_rows(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
     while pos + depth + aisle <= across {
         let height = rng.random_range(2.0..2.3);
         let r = if along_x {
-            Rect { x0: room.x0 + end, y0: room.y0 + pos, x1: room.x1 - end, y1: room.y0 + pos + depth }
+            Rect {
+                x0: room.x0 + end,
+                y0: room.y0 + pos,
+                x1: room.x1 - end,
+                y1: room.y0 + pos + depth,
+            }
         } else {
-            Rect { x0: room.x0 + pos, y0: room.y0 + end, x1: room.x0 + pos + depth, y1: room.y1 - end }
+            Rect {
+                x0: room.x0 + pos,
+                y0: room.y0 + end,
+                x1: room.x0 + pos + depth,
+                y1: room.y1 - end,
+            }
         };
         // Racks are open shelving in reality; a closed block is the conservative obstacle.
         plan.try_place(room, &block("shelf_rows", r, height));
@@ -751,7 +923,10 @@ mod tests {
                 let g = generate(style, 9, area).unwrap();
                 let (min, max) = g.mesh.bounds().unwrap();
                 let footprint = (max.x - min.x) * (max.y - min.y);
-                assert!((footprint / area - 1.0).abs() < 0.15, "{style:?} {area}: {footprint}");
+                assert!(
+                    (footprint / area - 1.0).abs() < 0.15,
+                    "{style:?} {area}: {footprint}"
+                );
             }
         }
         assert_eq!(
@@ -777,7 +952,10 @@ mod tests {
                 let centre_row = (r[1] + r[3]) / 2.0;
                 let reached = (0..100).any(|k| {
                     let x = r[0] + (r[2] - r[0]) * (k as f64 + 0.5) / 100.0;
-                    let c = gt.grid.cell_of(nalgebra::Point2::new(x, centre_row)).unwrap();
+                    let c = gt
+                        .grid
+                        .cell_of(nalgebra::Point2::new(x, centre_row))
+                        .unwrap();
                     gt.in_region(gt.grid.index(c))
                 });
                 assert!(reached, "{style:?} room {r:?}");

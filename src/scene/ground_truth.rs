@@ -67,8 +67,7 @@ impl GroundTruth {
 
         let spawn = match spawn {
             Some(s) => {
-                let inside_mesh =
-                    s.x >= min.x && s.x <= max.x && s.y >= min.y && s.y <= max.y;
+                let inside_mesh = s.x >= min.x && s.x <= max.x && s.y >= min.y && s.y <= max.y;
                 let cell = grid
                     .cell_of(s.position())
                     .filter(|_| inside_mesh && s.x.is_finite() && s.y.is_finite())
@@ -90,7 +89,10 @@ impl GroundTruth {
             None => auto_spawn(&grid, &obstacle, &clearance)?,
         };
 
-        let start = grid.index(grid.cell_of(spawn.position()).expect("spawn is in the grid"));
+        let start = grid.index(
+            grid.cell_of(spawn.position())
+                .expect("spawn is in the grid"),
+        );
         let reached = flood_fill_4(&grid, &obstacle, start);
         let mut region = reached.clone();
         for (i, _) in reached.iter().enumerate().filter(|(_, &r)| r) {
@@ -197,7 +199,7 @@ fn voxelise(mesh: &TriMesh, grid: &GridSpec) -> Vec<bool> {
                 let range = |k: usize, n: usize| {
                     let a = lo(k).floor().max(0.0);
                     let b = hi(k).floor().min(n as f64 - 1.0);
-                    (a <= b).then(|| a as usize..=b as usize)
+                    (a <= b).then_some(a as usize..=b as usize)
                 };
                 let (Some(xs), Some(ys)) = (range(0, nx), range(1, ny)) else {
                     continue;
@@ -375,7 +377,8 @@ fn auto_spawn(grid: &GridSpec, obstacle: &[bool], clearance: &[f32]) -> Result<P
         while let Some(i) = stack.pop() {
             size += 1;
             let c = grid.cell(i);
-            border |= c.x == 0 || c.y == 0 || c.x as usize == grid.nx - 1 || c.y as usize == grid.ny - 1;
+            border |=
+                c.x == 0 || c.y == 0 || c.x as usize == grid.nx - 1 || c.y as usize == grid.ny - 1;
             if clearance[i] > clearance[best] || (clearance[i] == clearance[best] && i < best) {
                 best = i;
             }
@@ -398,7 +401,9 @@ fn auto_spawn(grid: &GridSpec, obstacle: &[bool], clearance: &[f32]) -> Result<P
             Some(a) if a.0 >= r.0 => Some(a),
             _ => Some(r),
         })
-        .ok_or_else(|| Error::Runtime("the scene has no obstacle-free floor cell for a spawn".into()))?;
+        .ok_or_else(|| {
+            Error::Runtime("the scene has no obstacle-free floor cell for a spawn".into())
+        })?;
     let p = grid.center(grid.cell(chosen.2));
     Ok(Pose2::new(p.x, p.y, 0.0))
 }
@@ -461,7 +466,7 @@ mod tests {
         for (nx, ny, p) in [(37, 23, 0.05), (16, 40, 0.3), (9, 9, 0.0), (30, 1, 0.1)] {
             let sites: Vec<bool> = (0..nx * ny).map(|_| rng.random_bool(p)).collect();
             let fast = distance_transform(&sites, nx, ny);
-            for i in 0..nx * ny {
+            for (i, &fast_d2) in fast.iter().enumerate() {
                 let (x, y) = ((i % nx) as f64, (i / nx) as f64);
                 let brute = (0..nx * ny)
                     .filter(|&j| sites[j])
@@ -470,7 +475,7 @@ mod tests {
                         (a - x).powi(2) + (b - y).powi(2)
                     })
                     .fold(f64::INFINITY, f64::min);
-                assert_eq!(fast[i], brute, "{nx}×{ny} cell {i}");
+                assert_eq!(fast_d2, brute, "{nx}×{ny} cell {i}");
             }
         }
     }
@@ -521,9 +526,16 @@ mod tests {
         // Automatic spawn: max clearance in the room is 1.5 m (15 cells to the y walls), tied for
         // ix 21..=31 on row iy 21; the lowest index wins: cell (21, 21), centre (1.65, 1.65).
         let s = gt.spawn;
-        assert!((s.x - 1.65).abs() < 1e-9 && (s.y - 1.65).abs() < 1e-9, "{s:?}");
+        assert!(
+            (s.x - 1.65).abs() < 1e-9 && (s.y - 1.65).abs() < 1e-9,
+            "{s:?}"
+        );
         let c = gt.grid.index(gt.grid.cell_of(s.position()).unwrap());
-        assert!((gt.clearance_m(c) - 1.5).abs() < 1e-6, "{}", gt.clearance_m(c));
+        assert!(
+            (gt.clearance_m(c) - 1.5).abs() < 1e-6,
+            "{}",
+            gt.clearance_m(c)
+        );
         // The floor (layer 0) is occupied under the room but is not an obstacle.
         assert!(gt.occupied(c) && !gt.obstacle_column(c));
         assert!(gt.in_region(c) && !gt.in_region(0));

@@ -45,7 +45,10 @@ pub fn import_bytes(path: &Path, bytes: &[u8], cfg: &SceneConfig) -> Result<Impo
     if verts.len() < 3 {
         return Err(Error::scene(
             path,
-            format!("`verts` has {} points; an outline needs at least 3", verts.len()),
+            format!(
+                "`verts` has {} points; an outline needs at least 3",
+                verts.len()
+            ),
         ));
     }
     if let Some(i) = verts
@@ -134,7 +137,14 @@ mod tests {
     #[test]
     fn raster_matches_brute_force_point_in_polygon() {
         // An L-shaped polygon.
-        let verts = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]];
+        let verts = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ];
         let (nx, ny, res, origin) = (26, 26, 0.1, [-0.3, -0.3]);
         let fast = rasterise_polygon(&verts, origin, res, nx, ny);
         for iy in 0..ny {
@@ -143,9 +153,8 @@ mod tests {
                     origin[0] + (ix as f64 + 0.5) * res,
                     origin[1] + (iy as f64 + 0.5) * res,
                 );
-                let brute = (0.0..2.0).contains(&x)
-                    && (0.0..2.0).contains(&y)
-                    && !(x >= 1.0 && y >= 1.0);
+                let brute =
+                    (0.0..2.0).contains(&x) && (0.0..2.0).contains(&y) && !(x >= 1.0 && y >= 1.0);
                 assert_eq!(fast[iy * nx + ix], brute, "cell {ix},{iy}");
             }
         }
@@ -159,7 +168,11 @@ mod tests {
         let plan = import_bytes(Path::new("p.json"), &bytes, &cfg()).unwrap();
         assert_eq!(plan.rooms, Some(4));
         // The data set says 57 m² for this plan (outline interior).
-        assert!((plan.free_area_m2 - 57.0).abs() < 4.0, "{}", plan.free_area_m2);
+        assert!(
+            (plan.free_area_m2 - 57.0).abs() < 4.0,
+            "{}",
+            plan.free_area_m2
+        );
     }
 
     #[test]
@@ -174,6 +187,52 @@ mod tests {
     }
 
     #[test]
+    fn plan_1451_explorable_area_is_plausible() {
+        let path = data("house_expo_room_1451.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let verts: Vec<[f64; 2]> = serde_json::from_value(json["verts"].clone()).unwrap();
+        let outline_area = 0.5
+            * (0..verts.len())
+                .map(|i| {
+                    let (a, b) = (verts[i], verts[(i + 1) % verts.len()]);
+                    a[0] * b[1] - b[0] * a[1]
+                })
+                .sum::<f64>()
+                .abs();
+        // Union of the room boxes (they overlap), rasterised at 0.05 m.
+        let boxes: Vec<[f64; 4]> = json["room_category"]
+            .as_object()
+            .unwrap()
+            .values()
+            .flat_map(|v| serde_json::from_value::<Vec<[f64; 4]>>(v.clone()).unwrap())
+            .collect();
+        let union_cells = (0..400 * 400)
+            .filter(|i| {
+                let (x, y) = (
+                    -1.0 + (i % 400) as f64 * 0.05,
+                    -1.0 + (i / 400) as f64 * 0.05,
+                );
+                boxes
+                    .iter()
+                    .any(|b| x >= b[0] && x < b[2] && y >= b[1] && y < b[3])
+            })
+            .count();
+        let union_area = union_cells as f64 * 0.0025;
+        let cfg = Config::default();
+        let s = crate::scene::load(&path, &cfg.scene).unwrap();
+        let gt = crate::scene::ground_truth::GroundTruth::build(&s.mesh, None, &cfg).unwrap();
+        let area = gt.region_cells() as f64 * gt.grid.cell_area();
+        assert!((outline_area - 116.6).abs() < 0.1, "{outline_area}");
+        // The region is the outline's interior plus a one-cell ring on the walls.
+        assert!(
+            area > 0.95 * outline_area && area < 1.1 * outline_area,
+            "{area} vs {outline_area}"
+        );
+        assert!(area < union_area, "{area} vs room boxes {union_area}");
+    }
+
+    #[test]
     fn bad_plans_name_the_file() {
         let e = |text: &str| {
             import_bytes(Path::new("plan.json"), text.as_bytes(), &cfg())
@@ -184,7 +243,8 @@ mod tests {
             e(r#"{"verts": [[0,0],[1,0]]}"#),
             "plan.json: `verts` has 2 points; an outline needs at least 3"
         );
-        assert!(e(r#"{"vertz": []}"#).starts_with("plan.json: not a HouseExpo plan: missing field `verts`"));
+        assert!(e(r#"{"vertz": []}"#)
+            .starts_with("plan.json: not a HouseExpo plan: missing field `verts`"));
         assert!(e("garbage").starts_with("plan.json: not a HouseExpo plan: expected value"));
         assert_eq!(
             e(r#"{"verts": [[0,0],[0.01,0],[0,0.01]]}"#),

@@ -27,7 +27,8 @@ impl TriMesh {
 impl TriMesh {
     /// Adds a vertex and returns its index.
     pub fn push_vertex(&mut self, x: f64, y: f64, z: f64) -> u32 {
-        self.vertices.push(Point3::new(x as f32, y as f32, z as f32));
+        self.vertices
+            .push(Point3::new(x as f32, y as f32, z as f32));
         (self.vertices.len() - 1) as u32
     }
 

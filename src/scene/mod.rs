@@ -470,7 +470,11 @@ f 2 3 7 6
         assert_eq!(s.mesh.vertices.len(), 868);
         assert_eq!(s.mesh.triangles.len(), 1732);
         let (min, max) = s.mesh.bounds().unwrap();
-        assert!((max.z - min.z - 3.0).abs() < 1e-3, "height {}", max.z - min.z);
+        assert!(
+            (max.z - min.z - 3.0).abs() < 1e-3,
+            "height {}",
+            max.z - min.z
+        );
         assert_eq!(s.source, "ply");
     }
 
@@ -583,7 +587,11 @@ f 2 3 7 6
             format!("{}: unknown scene format `.stl` (expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan)", pd("x.stl"))
         );
         assert_eq!(
-            err(d, "s.obj", "# tensorscout spawn 1 two 0\nv 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 3\n"),
+            err(
+                d,
+                "s.obj",
+                "# tensorscout spawn 1 two 0\nv 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 3\n"
+            ),
             format!(
                 "{}: bad spawn line `tensorscout spawn 1 two 0`: expected X Y YAW",
                 pd("s.obj")
@@ -594,10 +602,63 @@ f 2 3 7 6
         let p = d.join("trunc.ply");
         std::fs::write(&p, &good[..good.len() / 2]).unwrap();
         let e = load(&p, &cfg()).unwrap_err().to_string();
-        assert!(e.starts_with(&format!("{}: cannot parse PLY", pd("trunc.ply"))), "{e}");
+        assert!(
+            e.starts_with(&format!("{}: cannot parse PLY", pd("trunc.ply"))),
+            "{e}"
+        );
     }
 
     use ply_rs_bw::parser::Parser;
+
+    /// Every shipped scene loads, carries a spawn that the ground truth accepts with room to turn,
+    /// sits in the largest region (the automatic spawn finds the same region), and the generated
+    /// ones are exactly what the generator produces today.
+    #[test]
+    fn shipped_scenes_load_with_valid_spawns() {
+        use crate::scene::generate::{generate, shipped_generated};
+        use crate::scene::ground_truth::GroundTruth;
+        let config = Config::default();
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut names: Vec<&str> = shipped_generated().iter().map(|g| g.0).collect();
+        names.extend(["small_house", "houseexpo_1451"]);
+        for name in names {
+            let s = load(&dir.join(format!("{name}.obj")), &config.scene).unwrap();
+            let spawn = s
+                .spawn
+                .unwrap_or_else(|| panic!("{name} has no spawn line"));
+            let gt = GroundTruth::build(&s.mesh, Some(spawn), &config).unwrap();
+            let cell = gt.grid.index(gt.grid.cell_of(spawn.position()).unwrap());
+            assert!(
+                gt.clearance_m(cell) >= 0.5,
+                "{name}: {}",
+                gt.clearance_m(cell)
+            );
+            let area = gt.region_cells() as f64 * gt.grid.cell_area();
+            assert!((30.0..450.0).contains(&area), "{name}: region {area} m²");
+            let auto = GroundTruth::build(&s.mesh, None, &config).unwrap();
+            assert_eq!(auto.region_cells(), gt.region_cells(), "{name}");
+            assert!(
+                std::fs::metadata(&s.path).unwrap().len() < 400_000,
+                "{name}"
+            );
+        }
+        for (name, style, seed, area) in shipped_generated() {
+            let s = load(&dir.join(format!("{name}.obj")), &config.scene).unwrap();
+            let g = generate(style, seed, area).unwrap();
+            let corners = |m: &TriMesh| -> Vec<Point3<f32>> {
+                m.triangles
+                    .iter()
+                    .flat_map(|t| t.map(|i| m.vertices[i as usize]))
+                    .collect()
+            };
+            assert_eq!(
+                corners(&s.mesh),
+                corners(&g.mesh),
+                "{name} is stale: rerun make_scenes"
+            );
+            assert_eq!(s.spawn, Some(g.spawn));
+        }
+    }
 
     #[test]
     fn write_obj_round_trips_and_reports_missing_folder() {

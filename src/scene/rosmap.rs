@@ -49,10 +49,7 @@ pub fn import(path: &Path, cfg: &SceneConfig) -> Result<ImportedMap> {
     let text = std::str::from_utf8(&yaml_bytes)
         .map_err(|_| Error::scene(path, "map yaml is not UTF-8 text"))?;
     let yaml = parse_yaml(path, text)?;
-    let image_path = path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(&yaml.image);
+    let image_path = path.parent().unwrap_or(Path::new(".")).join(&yaml.image);
     let image_bytes = super::read_nonempty(&image_path)?;
     let pgm = parse_pgm(&image_path, &image_bytes)?;
     let (mesh, free_cells) = extrude_map(path, &yaml, &pgm, cfg)?;
@@ -101,7 +98,10 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
                     .strip_prefix('[')
                     .and_then(|v| v.strip_suffix(']'))
                     .ok_or_else(|| {
-                        Error::scene(path, format!("key `origin`: expected [x, y, yaw], got `{value}`"))
+                        Error::scene(
+                            path,
+                            format!("key `origin`: expected [x, y, yaw], got `{value}`"),
+                        )
                     })?;
                 let parts: Vec<f64> = inner
                     .split(',')
@@ -147,10 +147,7 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
         // Simplification: a rotated map would need a rotated grid; map_saver always writes yaw 0.
         return Err(Error::scene(
             path,
-            format!(
-                "key `origin`: yaw {} is not supported (only 0)",
-                origin[2]
-            ),
+            format!("key `origin`: yaw {} is not supported (only 0)", origin[2]),
         ));
     }
     let occupied_thresh = occupied_thresh.ok_or_else(|| missing("occupied_thresh"))?;
@@ -224,7 +221,9 @@ pub fn parse_pgm(path: &Path, bytes: &[u8]) -> Result<Pgm> {
         return Err(bad(&format!("unusable size {width} × {height}")));
     }
     if max_value == 0 || max_value > 65535 {
-        return Err(bad(&format!("maximum value {max_value} (expected 1..65535)")));
+        return Err(bad(&format!(
+            "maximum value {max_value} (expected 1..65535)"
+        )));
     }
     let n = width * height;
     let pixels: Vec<u16> = if magic == "P5" {
@@ -311,7 +310,8 @@ fn extrude_map(
 ) -> Result<(TriMesh, usize)> {
     let (w, h) = (pgm.width, pgm.height);
     // Grid row iy is image row h-1-iy: image row 0 is the top (max y).
-    let state = |ix: usize, iy: usize| classify(yaml, pgm.max_value, pgm.pixels[(h - 1 - iy) * w + ix]);
+    let state =
+        |ix: usize, iy: usize| classify(yaml, pgm.max_value, pgm.pixels[(h - 1 - iy) * w + ix]);
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
     for iy in 0..h {
         for ix in 0..w {
@@ -324,7 +324,10 @@ fn extrude_map(
         }
     }
     if x0 == usize::MAX {
-        return Err(Error::scene(path, "map has no known (free or occupied) cells"));
+        return Err(Error::scene(
+            path,
+            "map has no known (free or occupied) cells",
+        ));
     }
     let (nx, ny) = (x1 - x0, y1 - y0);
     let mut solid = vec![true; nx * ny];
@@ -366,11 +369,18 @@ mod tests {
         let s = crate::scene::load(&data("map.yaml"), &cfg()).unwrap();
         let (min, max) = s.mesh.bounds().unwrap();
         let (dx, dy) = (max.x - min.x, max.y - min.y);
-        assert!((dx - 19.0).abs() < 0.5 && (dy - 11.4).abs() < 0.5, "{dx} × {dy}");
+        assert!(
+            (dx - 19.0).abs() < 0.5 && (dy - 11.4).abs() < 0.5,
+            "{dx} × {dy}"
+        );
         assert_eq!((min.z, max.z), (0.0, 2.5));
         assert_eq!(s.source, "ros-map");
         // Merged faces: far fewer triangles than the 250,000 pixels.
-        assert!(s.mesh.triangles.len() < 40_000, "{}", s.mesh.triangles.len());
+        assert!(
+            s.mesh.triangles.len() < 40_000,
+            "{}",
+            s.mesh.triangles.len()
+        );
         let yaml = std::fs::read(data("map.yaml")).unwrap();
         let pgm = std::fs::read(data("map.pgm")).unwrap();
         assert_eq!(
@@ -450,7 +460,10 @@ mod tests {
         );
         assert_eq!(
             y("b.yaml", &base.replace("[0, 0, 0]", "[0, 0, 0.5]")),
-            format!("{}: key `origin`: yaw 0.5 is not supported (only 0)", p("b.yaml"))
+            format!(
+                "{}: key `origin`: yaw 0.5 is not supported (only 0)",
+                p("b.yaml")
+            )
         );
         assert_eq!(
             y("c.yaml", &base.replace("0.05", "fine")),
@@ -461,12 +474,18 @@ mod tests {
         std::fs::write(d.join("m.pgm"), b"P5 4 4 255\n\x00\x00").unwrap();
         assert_eq!(
             y("e.yaml", base),
-            format!("{}: not a valid PGM image: pixel data is truncated (2 of 16 bytes)", p("m.pgm"))
+            format!(
+                "{}: not a valid PGM image: pixel data is truncated (2 of 16 bytes)",
+                p("m.pgm")
+            )
         );
         std::fs::write(d.join("m.pgm"), b"GIF89a....").unwrap();
         assert_eq!(
             y("f.yaml", base),
-            format!("{}: not a valid PGM image: magic `GIF89a..` (expected P5 or P2)", p("m.pgm"))
+            format!(
+                "{}: not a valid PGM image: magic `GIF89a..` (expected P5 or P2)",
+                p("m.pgm")
+            )
         );
         std::fs::write(d.join("m.pgm"), b"P2 2 1 255 205 205").unwrap();
         assert_eq!(
