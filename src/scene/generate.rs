@@ -917,6 +917,39 @@ mod tests {
     }
 
     #[test]
+    fn office_has_every_furniture_height() {
+        let g = generate(Style::Office, 5, 380.0).unwrap();
+        for f in [
+            "cubicles",
+            "tables",
+            "wall_shelves",
+            "low_boxes",
+            "full_shelves",
+            "loop",
+        ] {
+            assert!(
+                g.features.iter().any(|x| x == f),
+                "missing {f}: {:?}",
+                g.features
+            );
+        }
+        // Heights of horizontal faces: table tops, wall-shelf undersides, partition tops.
+        let flat_z: Vec<f32> = g
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| g.mesh.vertices[i as usize].z))
+            .filter(|z| z[0] == z[1] && z[1] == z[2])
+            .map(|z| z[0])
+            .collect();
+        let has = |lo: f32, hi: f32| flat_z.iter().any(|&z| z >= lo && z <= hi);
+        assert!(has(0.72, 0.76), "table undersides");
+        assert!(has(1.4, 1.4), "wall shelf undersides above 1.3 m");
+        assert!(has(1.2, 1.5), "cubicle partitions");
+        assert!(has(2.5, 2.5) && has(0.0, 0.0), "walls and floor");
+    }
+
+    #[test]
     fn area_is_respected_and_checked() {
         for style in Style::ALL {
             for area in [25.0, 150.0, 600.0] {
@@ -948,6 +981,10 @@ mod tests {
             let gt = GroundTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
             assert!(g.rooms.len() >= 2, "{style:?}");
             assert!(g.doors >= g.rooms.len() - 1);
+            assert!(
+                g.loops >= 1 && g.features.contains(&"loop".to_string()),
+                "{style:?}"
+            );
             for r in &g.rooms {
                 let centre_row = (r[1] + r[3]) / 2.0;
                 let reached = (0..100).any(|k| {

@@ -48,6 +48,14 @@ impl GroundTruth {
             cfg.map.band_max_m,
             cfg.map.voxel_m,
         );
+        // One byte per voxel: refuse grids that would need gigabytes rather than abort on allocation.
+        const MAX_VOXELS: usize = 400_000_000;
+        if grid.voxels() > MAX_VOXELS {
+            return Err(Error::usage(format!(
+                "the scene's ground-truth grid ({} × {} × {} voxels) is too large; raise map.voxel_m",
+                grid.nx, grid.ny, grid.nz
+            )));
+        }
         let occupied = voxelise(mesh, &grid);
         let robot_layers = grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m);
         let cells = grid.cells();

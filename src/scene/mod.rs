@@ -610,6 +610,43 @@ f 2 3 7 6
 
     use ply_rs_bw::parser::Parser;
 
+    /// Corrupted real files (truncated, bytes flipped) give errors or meshes, never a panic.
+    #[test]
+    fn corrupted_files_never_panic() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            "house_expo_room_1451.ply",
+            "house_expo_room_0000.json",
+            "map.pgm",
+        ] {
+            let good = std::fs::read(data(name)).unwrap();
+            for k in 0..150 {
+                let mut bytes = good.clone();
+                if k % 2 == 0 {
+                    bytes.truncate(rng.random_range(0..good.len()));
+                }
+                for _ in 0..rng.random_range(1..6) {
+                    let i = rng.random_range(0..bytes.len().max(1));
+                    if let Some(b) = bytes.get_mut(i) {
+                        *b = rng.random();
+                    }
+                }
+                let path = if name == "map.pgm" {
+                    std::fs::write(dir.path().join("map.pgm"), &bytes).unwrap();
+                    std::fs::copy(data("map.yaml"), dir.path().join("map.yaml")).unwrap();
+                    dir.path().join("map.yaml")
+                } else {
+                    let p = dir.path().join(name);
+                    std::fs::write(&p, &bytes).unwrap();
+                    p
+                };
+                let _ = load(&path, &cfg());
+            }
+        }
+    }
+
     /// Every shipped scene loads, carries a spawn that the ground truth accepts with room to turn,
     /// sits in the largest region (the automatic spawn finds the same region), and the generated
     /// ones are exactly what the generator produces today.
