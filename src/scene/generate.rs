@@ -1,0 +1,1004 @@
+//! Procedural indoor scenes: rooms, doors, corridors, loops and furniture of several heights.
+//!
+//! Layout and walls live on a 0.05 m cell raster (walls 2 cells = 0.1 m thick, doors 20 cells =
+//! 1.0 m wide) and are extruded by the shared [`extrude_grid`]; furniture is added as closed boxes.
+//! Every furniture piece is kept only if, with it, every room still has a spot where the robot disc
+//! fits and all those spots are connected through passages at least ~0.85 m wide (checked with an
+//! exact distance transform of the robot-height footprint). All randomness comes from one ChaCha8
+//! stream seeded by `seed`; nothing iterates a hash map.
+
+use super::extrude::extrude_grid;
+use super::ground_truth::distance_transform;
+use super::TriMesh;
+use crate::error::{Error, Result};
+use crate::Pose2;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Raster cell, metres.
+const RES: f64 = 0.05;
+/// Wall thickness, cells (0.1 m).
+const WALL: i32 = 2;
+/// Door width, cells (1.0 m: a 0.5 m robot passes with margin).
+const DOOR: i32 = 20;
+/// Minimum distance from a door to a wall corner, cells.
+const DOOR_MARGIN: i32 = 4;
+/// Wall height, metres.
+const WALL_HEIGHT: f64 = 2.5;
+/// Squared clearance (cells²) a cell needs to hold the robot with a 0.85 m passage: 0.425 m.
+const CLEAR_D2: f64 = (0.425 / RES) * (0.425 / RES);
+
+/// The kind of building to generate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Style {
+    Apartment,
+    Office,
+    Corridor,
+    Warehouse,
+}
+
+impl Style {
+    pub const ALL: [Style; 4] = [
+        Style::Apartment,
+        Style::Office,
+        Style::Corridor,
+        Style::Warehouse,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Style::Apartment => "apartment",
+            Style::Office => "office",
+            Style::Corridor => "corridor",
+            Style::Warehouse => "warehouse",
+        }
+    }
+
+    /// Parses a style name (as the CLI's `--style` takes it).
+    pub fn parse(name: &str) -> Result<Style> {
+        Style::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| {
+                Error::usage(format!(
+                    "unknown scene style `{name}` (expected apartment, office, corridor or warehouse)"
+                ))
+            })
+    }
+}
+
+/// A generated scene and what it contains.
+#[derive(Clone, Debug)]
+pub struct GeneratedScene {
+    pub mesh: TriMesh,
+    /// The free spot with the largest clearance in the connected free space.
+    pub spawn: Pose2,
+    pub style: Style,
+    pub seed: u64,
+    /// Footprint area (outer walls included), m².
+    pub area_m2: f64,
+    /// Room rectangles `[x0, y0, x1, y1]` (inner faces of the walls), metres.
+    pub rooms: Vec<[f64; 4]>,
+    pub doors: usize,
+    /// Doors beyond a spanning tree of the rooms: each closes one cycle.
+    pub loops: usize,
+    /// What the scene contains, e.g. "loop", "corridor", "tables", "wall_shelves", "cubicles".
+    pub features: Vec<String>,
+}
+
+impl GeneratedScene {
+    /// The header lines `write_obj` puts at the top of a shipped scene.
+    pub fn header(&self) -> Vec<String> {
+        vec![
+            format!(
+                "tensorscout generated scene: style {}, seed {}, area {:.1} m2",
+                self.style.name(),
+                self.seed,
+                self.area_m2
+            ),
+            format!(
+                "rooms {}, doors {}, loops {}, features: {}",
+                self.rooms.len(),
+                self.doors,
+                self.loops,
+                self.features.join(", ")
+            ),
+        ]
+    }
+}
+
+/// Generates a scene of `style` with a footprint of about `area_m2` (20–2000 m²), deterministic per
+/// `seed`.
+pub fn generate(style: Style, seed: u64, area_m2: f64) -> Result<GeneratedScene> {
+    if !(20.0..=2000.0).contains(&area_m2) {
+        return Err(Error::usage(format!(
+            "scene area {area_m2} m² is outside [20, 2000] m²"
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut plan = layout(style, area_m2, &mut rng);
+    plan.add_doors(style, area_m2, &mut rng);
+    plan.reachability().ok_or_else(|| {
+        Error::Runtime(format!(
+            "generator: {} seed {seed} produced an unreachable room",
+            style.name()
+        ))
+    })?;
+    furnish(&mut plan, style, &mut rng);
+    let spawn_cell = plan
+        .reachability()
+        .expect("furniture is only kept while every room stays reachable");
+
+    let (w, h) = (plan.w as usize, plan.h as usize);
+    let mut mesh = extrude_grid(&plan.solid, w, h, [0.0, 0.0], RES, WALL_HEIGHT);
+    for b in &plan.boxes {
+        mesh.push_box(b.0, b.1);
+    }
+    let (sx, sy) = (spawn_cell % w, spawn_cell / w);
+    let spawn = Pose2::new((sx as f64 + 0.5) * RES, (sy as f64 + 0.5) * RES, 0.0);
+    let mut features = vec!["rooms".to_string(), "doors".to_string()];
+    if plan.loops > 0 {
+        features.push("loop".into());
+    }
+    if style == Style::Corridor {
+        features.push("corridor".into());
+    }
+    features.extend(plan.placed.iter().map(|s| s.to_string()));
+    Ok(GeneratedScene {
+        mesh,
+        spawn,
+        style,
+        seed,
+        area_m2: plan.w as f64 * plan.h as f64 * RES * RES,
+        rooms: plan
+            .rooms
+            .iter()
+            .map(|r| {
+                [
+                    r.x0 as f64 * RES,
+                    r.y0 as f64 * RES,
+                    r.x1 as f64 * RES,
+                    r.y1 as f64 * RES,
+                ]
+            })
+            .collect(),
+        doors: plan.doors.len(),
+        loops: plan.loops,
+        features,
+    })
+}
+
+/// A rectangle of cells `[x0, x1) × [y0, y1)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Rect {
+    x0: i32,
+    y0: i32,
+    x1: i32,
+    y1: i32,
+}
+
+impl Rect {
+    fn w(&self) -> i32 {
+        self.x1 - self.x0
+    }
+    fn h(&self) -> i32 {
+        self.y1 - self.y0
+    }
+    fn area_m2(&self) -> f64 {
+        self.w() as f64 * self.h() as f64 * RES * RES
+    }
+    fn grow(&self, d: i32) -> Rect {
+        Rect {
+            x0: self.x0 - d,
+            y0: self.y0 - d,
+            x1: self.x1 + d,
+            y1: self.y1 + d,
+        }
+    }
+    fn intersects(&self, o: &Rect) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+    fn contains(&self, o: &Rect) -> bool {
+        o.x0 >= self.x0 && o.x1 <= self.x1 && o.y0 >= self.y0 && o.y1 <= self.y1
+    }
+}
+
+/// The plan being built: wall raster, rooms, doors, furniture.
+struct Plan {
+    w: i32,
+    h: i32,
+    solid: Vec<bool>,
+    rooms: Vec<Rect>,
+    /// Index of a room every other room should open onto first (a corridor or hall), if any.
+    hub: Option<usize>,
+    /// Door openings (the carved wall cells).
+    doors: Vec<Rect>,
+    loops: usize,
+    /// Footprints that block the robot (furniture reaching into [0.1, 1.2] m).
+    blocking: Vec<Rect>,
+    /// Footprints of all furniture, kept apart from each other.
+    taken: Vec<Rect>,
+    /// Mesh boxes `(min, max)` in metres.
+    boxes: Vec<([f64; 3], [f64; 3])>,
+    /// Furniture kinds placed, in first-placed order, without repeats.
+    placed: Vec<&'static str>,
+}
+
+/// Splits the footprint into rooms according to the style.
+fn layout(style: Style, area_m2: f64, rng: &mut ChaCha8Rng) -> Plan {
+    let cells = |m: f64| (m / RES).round() as i32;
+    let (w, h, rooms, hub) = match style {
+        Style::Corridor => {
+            // Side rooms of depth `d` on both sides of a 2 m corridor.
+            let d = (area_m2.sqrt() / 3.0).clamp(2.6, 4.5);
+            let h_m = 2.0 + 2.0 * d + 4.0 * WALL as f64 * RES;
+            let w_m = area_m2 / h_m;
+            let (w, h) = (cells(w_m), cells(h_m));
+            let (dc, cc) = (cells(d), cells(2.0));
+            let bottom = Rect {
+                x0: WALL,
+                y0: WALL,
+                x1: w - WALL,
+                y1: WALL + dc,
+            };
+            let corridor = Rect {
+                x0: WALL,
+                y0: bottom.y1 + WALL,
+                x1: w - WALL,
+                y1: bottom.y1 + WALL + cc,
+            };
+            let top = Rect {
+                x0: WALL,
+                y0: corridor.y1 + WALL,
+                x1: w - WALL,
+                y1: h - WALL,
+            };
+            let mut rooms = vec![corridor];
+            for strip in [bottom, top] {
+                rooms.extend(split_along_x(strip, cells(3.0), cells(4.5), rng));
+            }
+            (w, h, rooms, Some(0))
+        }
+        _ => {
+            let aspect = rng.random_range(1.0..1.5);
+            let w_m = (area_m2 * aspect).sqrt();
+            let (w, h) = (cells(w_m), cells(area_m2 / w_m));
+            let inner = Rect {
+                x0: WALL,
+                y0: WALL,
+                x1: w - WALL,
+                y1: h - WALL,
+            };
+            match style {
+                Style::Apartment => (w, h, bsp(inner, 15.0, cells(2.6), rng), None),
+                Style::Office => {
+                    // An open-plan area on ~45 % of the floor, single offices on the rest.
+                    let (open, rest) = cut(inner, 0.45, rng);
+                    let mut rooms = vec![open];
+                    rooms.extend(bsp(rest, 28.0, cells(3.0), rng));
+                    (w, h, rooms, Some(0))
+                }
+                Style::Warehouse => {
+                    // One hall on ~80 % of the floor, a strip of small rooms beside it.
+                    let (hall, strip) = cut(inner, 0.8, rng);
+                    let mut rooms = vec![hall];
+                    rooms.extend(bsp(strip, 20.0, cells(2.6), rng));
+                    (w, h, rooms, Some(0))
+                }
+                Style::Corridor => unreachable!("handled above"),
+            }
+        }
+    };
+    let mut solid = vec![true; (w * h) as usize];
+    for r in &rooms {
+        for y in r.y0..r.y1 {
+            for x in r.x0..r.x1 {
+                solid[(y * w + x) as usize] = false;
+            }
+        }
+    }
+    Plan {
+        w,
+        h,
+        solid,
+        rooms,
+        hub,
+        doors: Vec::new(),
+        loops: 0,
+        blocking: Vec::new(),
+        taken: Vec::new(),
+        boxes: Vec::new(),
+        placed: Vec::new(),
+    }
+}
+
+/// Cuts `r` across its longer side at `fraction` (± a little) into two rooms separated by a wall.
+fn cut(r: Rect, fraction: f64, rng: &mut ChaCha8Rng) -> (Rect, Rect) {
+    let f = fraction + rng.random_range(-0.03..0.03);
+    if r.w() >= r.h() {
+        let s = r.x0 + (r.w() as f64 * f) as i32;
+        (Rect { x1: s, ..r }, Rect { x0: s + WALL, ..r })
+    } else {
+        let s = r.y0 + (r.h() as f64 * f) as i32;
+        (Rect { y1: s, ..r }, Rect { y0: s + WALL, ..r })
+    }
+}
+
+/// Splits a strip into rooms between `min` and `max` cells wide along x.
+fn split_along_x(strip: Rect, min: i32, max: i32, rng: &mut ChaCha8Rng) -> Vec<Rect> {
+    let mut rooms = Vec::new();
+    let mut x = strip.x0;
+    while strip.x1 - x > max + WALL + min {
+        let width = rng.random_range(min..=max);
+        rooms.push(Rect {
+            x0: x,
+            x1: x + width,
+            ..strip
+        });
+        x += width + WALL;
+    }
+    rooms.push(Rect { x0: x, ..strip });
+    rooms
+}
+
+/// Binary space partition into rooms of about `target_m2`, no side below `min` cells.
+fn bsp(r: Rect, target_m2: f64, min: i32, rng: &mut ChaCha8Rng) -> Vec<Rect> {
+    let along_x = r.w() >= r.h();
+    let len = if along_x { r.w() } else { r.h() };
+    if r.area_m2() <= target_m2 * 1.3 || len < 2 * min + WALL {
+        return vec![r];
+    }
+    let s = rng.random_range(min..=len - min - WALL);
+    let (a, b) = if along_x {
+        (
+            Rect { x1: r.x0 + s, ..r },
+            Rect {
+                x0: r.x0 + s + WALL,
+                ..r
+            },
+        )
+    } else {
+        (
+            Rect { y1: r.y0 + s, ..r },
+            Rect {
+                y0: r.y0 + s + WALL,
+                ..r
+            },
+        )
+    };
+    let mut out = bsp(a, target_m2, min, rng);
+    out.extend(bsp(b, target_m2, min, rng));
+    out
+}
+
+impl Plan {
+    fn cell(&self, x: i32, y: i32) -> usize {
+        (y * self.w + x) as usize
+    }
+
+    /// Candidate doors between rooms separated by one wall: `(room a, room b, opening)`.
+    fn door_candidates(&self, rng: &mut ChaCha8Rng) -> Vec<(usize, usize, Rect)> {
+        let mut out = Vec::new();
+        for (i, a) in self.rooms.iter().enumerate() {
+            for (j, b) in self.rooms.iter().enumerate().skip(i + 1) {
+                let span = |lo0: i32, hi0: i32, lo1: i32, hi1: i32| (lo0.max(lo1), hi0.min(hi1));
+                let opening = if a.x1 + WALL == b.x0 || b.x1 + WALL == a.x0 {
+                    let x0 = if a.x1 + WALL == b.x0 { a.x1 } else { b.x1 };
+                    let (lo, hi) = span(a.y0, a.y1, b.y0, b.y1);
+                    (hi - lo >= DOOR + 2 * DOOR_MARGIN).then(|| {
+                        let y = rng.random_range(lo + DOOR_MARGIN..=hi - DOOR_MARGIN - DOOR);
+                        Rect {
+                            x0,
+                            y0: y,
+                            x1: x0 + WALL,
+                            y1: y + DOOR,
+                        }
+                    })
+                } else if a.y1 + WALL == b.y0 || b.y1 + WALL == a.y0 {
+                    let y0 = if a.y1 + WALL == b.y0 { a.y1 } else { b.y1 };
+                    let (lo, hi) = span(a.x0, a.x1, b.x0, b.x1);
+                    (hi - lo >= DOOR + 2 * DOOR_MARGIN).then(|| {
+                        let x = rng.random_range(lo + DOOR_MARGIN..=hi - DOOR_MARGIN - DOOR);
+                        Rect {
+                            x0: x,
+                            y0,
+                            x1: x + DOOR,
+                            y1: y0 + WALL,
+                        }
+                    })
+                } else {
+                    None
+                };
+                if let Some(o) = opening {
+                    out.push((i, j, o));
+                }
+            }
+        }
+        out
+    }
+
+    /// Doors along a random spanning tree of the rooms (hub edges first), plus loop doors.
+    fn add_doors(&mut self, style: Style, area_m2: f64, rng: &mut ChaCha8Rng) {
+        let mut edges = self.door_candidates(rng);
+        edges.shuffle(rng);
+        let hub = self.hub;
+        edges.sort_by_key(|&(a, b, _)| !(Some(a) == hub || Some(b) == hub));
+        let mut parent: Vec<usize> = (0..self.rooms.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let mut spare = Vec::new();
+        for (a, b, o) in edges {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            if ra != rb {
+                parent[ra] = rb;
+                self.doors.push(o);
+            } else {
+                spare.push(o);
+            }
+        }
+        let wanted = match style {
+            Style::Apartment if area_m2 < 90.0 => 0,
+            Style::Apartment => 2,
+            Style::Office => 3,
+            Style::Corridor => 2,
+            Style::Warehouse => 1,
+        };
+        for o in spare.into_iter().take(wanted) {
+            self.doors.push(o);
+            self.loops += 1;
+        }
+        for d in self.doors.clone() {
+            for y in d.y0..d.y1 {
+                for x in d.x0..d.x1 {
+                    let c = self.cell(x, y);
+                    self.solid[c] = false;
+                }
+            }
+        }
+    }
+
+    /// If every room holds a robot-sized spot and all are connected, the spot with the largest
+    /// clearance (ties → lowest index) among the connected ones; `None` if some room is cut off.
+    fn reachability(&self) -> Option<usize> {
+        let (w, h) = (self.w as usize, self.h as usize);
+        let mut blocked = self.solid.clone();
+        for r in &self.blocking {
+            for y in r.y0..r.y1 {
+                for x in r.x0..r.x1 {
+                    blocked[self.cell(x, y)] = true;
+                }
+            }
+        }
+        let d2 = distance_transform(&blocked, w, h);
+        let fits = |i: usize| d2[i] >= CLEAR_D2;
+        let first = self.rooms.first()?;
+        let start = (first.y0..first.y1)
+            .flat_map(|y| (first.x0..first.x1).map(move |x| (x, y)))
+            .map(|(x, y)| self.cell(x, y))
+            .find(|&i| fits(i))?;
+        let mut seen = vec![false; w * h];
+        seen[start] = true;
+        let mut stack = vec![start];
+        let mut best = start;
+        while let Some(i) = stack.pop() {
+            if d2[i] > d2[best] || (d2[i] == d2[best] && i < best) {
+                best = i;
+            }
+            let (x, y) = (i % w, i / w);
+            let mut visit = |j: usize| {
+                if !seen[j] && fits(j) {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < w {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - w);
+            }
+            if y + 1 < h {
+                visit(i + w);
+            }
+        }
+        let all_reached = self
+            .rooms
+            .iter()
+            .all(|r| (r.y0..r.y1).any(|y| (r.x0..r.x1).any(|x| seen[self.cell(x, y)])));
+        all_reached.then_some(best)
+    }
+
+    /// Keep-out zones in front of doors (1 m on both sides), where no furniture may stand.
+    fn door_zones(&self) -> Vec<Rect> {
+        self.doors
+            .iter()
+            .map(|d| {
+                if d.w() == WALL {
+                    Rect {
+                        x0: d.x0 - 20,
+                        x1: d.x1 + 20,
+                        y0: d.y0 - 2,
+                        y1: d.y1 + 2,
+                    }
+                } else {
+                    Rect {
+                        x0: d.x0 - 2,
+                        x1: d.x1 + 2,
+                        y0: d.y0 - 20,
+                        y1: d.y1 + 20,
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Tries to add one piece; keeps it only if it fits in `room`, clears doors and other pieces by
+    /// 0.1 m, and leaves every room reachable.
+    fn try_place(&mut self, room: Rect, piece: &Piece) -> bool {
+        let fp = piece.footprint;
+        if !room.contains(&fp)
+            || self.taken.iter().any(|t| t.grow(2).intersects(&fp))
+            || self.door_zones().iter().any(|z| z.intersects(&fp))
+        {
+            return false;
+        }
+        let n_blocking = self.blocking.len();
+        self.blocking.extend(piece.blocking.iter().copied());
+        if self.reachability().is_none() {
+            self.blocking.truncate(n_blocking);
+            return false;
+        }
+        self.taken.push(fp);
+        self.boxes.extend(piece.boxes.iter().copied());
+        if !self.placed.contains(&piece.kind) {
+            self.placed.push(piece.kind);
+        }
+        true
+    }
+}
+
+/// One furniture item (or a cubicle cluster) ready to place.
+struct Piece {
+    kind: &'static str,
+    footprint: Rect,
+    blocking: Vec<Rect>,
+    boxes: Vec<([f64; 3], [f64; 3])>,
+}
+
+fn m(c: i32) -> f64 {
+    c as f64 * RES
+}
+
+fn slab(r: Rect, z0: f64, z1: f64) -> ([f64; 3], [f64; 3]) {
+    ([m(r.x0), m(r.y0), z0], [m(r.x1), m(r.y1), z1])
+}
+
+/// A solid box from the floor (beds, sofas, pallets, full-height shelves).
+fn block(kind: &'static str, r: Rect, height: f64) -> Piece {
+    Piece {
+        kind,
+        footprint: r,
+        blocking: vec![r],
+        boxes: vec![slab(r, 0.0, height)],
+    }
+}
+
+/// A table: a top slab at `top` m on four 0.05 m legs (an overhang above the floor).
+fn table(r: Rect, top: f64) -> Piece {
+    let mut boxes = vec![slab(r, top, top + 0.04)];
+    for (lx, ly) in [
+        (r.x0 + 1, r.y0 + 1),
+        (r.x1 - 2, r.y0 + 1),
+        (r.x0 + 1, r.y1 - 2),
+        (r.x1 - 2, r.y1 - 2),
+    ] {
+        boxes.push(slab(
+            Rect {
+                x0: lx,
+                y0: ly,
+                x1: lx + 1,
+                y1: ly + 1,
+            },
+            0.0,
+            top,
+        ));
+    }
+    Piece {
+        kind: "tables",
+        footprint: r,
+        blocking: vec![r],
+        boxes,
+    }
+}
+
+/// A shelf fixed to the wall between 1.4 and 1.75 m: the robot (1.2 m) passes under it.
+fn wall_shelf(r: Rect) -> Piece {
+    Piece {
+        kind: "wall_shelves",
+        footprint: r,
+        blocking: vec![],
+        boxes: vec![slab(r, 1.4, 1.75)],
+    }
+}
+
+/// A row of cubicles: a spine partition with side partitions every 2 m on both sides, a desk in
+/// every bay; partitions 1.2–1.5 m high, 0.05 m thick.
+fn cubicles(x0: i32, y0: i32, bays: i32, height: f64) -> Piece {
+    let (bay, depth) = (40, 30); // 2.0 m × 1.5 m
+    let spine = Rect {
+        x0,
+        y0: y0 + depth,
+        x1: x0 + bays * bay + 1,
+        y1: y0 + depth + 1,
+    };
+    let mut parts = vec![spine];
+    let mut boxes = Vec::new();
+    for k in 0..=bays {
+        let x = x0 + k * bay;
+        parts.push(Rect {
+            x0: x,
+            y0,
+            x1: x + 1,
+            y1: y0 + depth,
+        });
+        parts.push(Rect {
+            x0: x,
+            y0: y0 + depth + 1,
+            x1: x + 1,
+            y1: y0 + 2 * depth + 1,
+        });
+    }
+    for &p in &parts {
+        boxes.push(slab(p, 0.0, height));
+    }
+    let mut blocking = parts;
+    for k in 0..bays {
+        let x = x0 + k * bay + 6;
+        for desk in [
+            Rect {
+                x0: x,
+                y0: y0 + depth - 14,
+                x1: x + 28,
+                y1: y0 + depth,
+            },
+            Rect {
+                x0: x,
+                y0: y0 + depth + 1,
+                x1: x + 28,
+                y1: y0 + depth + 15,
+            },
+        ] {
+            boxes.extend(table(desk, 0.74).boxes);
+            blocking.push(desk);
+        }
+    }
+    let footprint = Rect {
+        x0,
+        y0,
+        x1: x0 + bays * bay + 1,
+        y1: y0 + 2 * depth + 1,
+    };
+    Piece {
+        kind: "cubicles",
+        footprint,
+        blocking,
+        boxes,
+    }
+}
+
+/// A `len × depth` rectangle against a random wall of `room` at a random position along it.
+fn against_wall(room: Rect, len: i32, depth: i32, rng: &mut ChaCha8Rng) -> Option<Rect> {
+    let side = rng.random_range(0..4);
+    let span = if side < 2 { room.w() } else { room.h() };
+    if span < len {
+        return None;
+    }
+    let off = rng.random_range(0..=span - len);
+    Some(match side {
+        0 => Rect {
+            x0: room.x0 + off,
+            y0: room.y0,
+            x1: room.x0 + off + len,
+            y1: room.y0 + depth,
+        },
+        1 => Rect {
+            x0: room.x0 + off,
+            y0: room.y1 - depth,
+            x1: room.x0 + off + len,
+            y1: room.y1,
+        },
+        2 => Rect {
+            x0: room.x0,
+            y0: room.y0 + off,
+            x1: room.x0 + depth,
+            y1: room.y0 + off + len,
+        },
+        _ => Rect {
+            x0: room.x1 - depth,
+            y0: room.y0 + off,
+            x1: room.x1,
+            y1: room.y0 + off + len,
+        },
+    })
+}
+
+/// A `w × h` rectangle anywhere in `room` at least `gap` cells from its walls.
+fn free_standing(room: Rect, w: i32, h: i32, gap: i32, rng: &mut ChaCha8Rng) -> Option<Rect> {
+    let inner = room.grow(-gap);
+    if inner.w() < w || inner.h() < h {
+        return None;
+    }
+    let x = rng.random_range(inner.x0..=inner.x1 - w);
+    let y = rng.random_range(inner.y0..=inner.y1 - h);
+    Some(Rect {
+        x0: x,
+        y0: y,
+        x1: x + w,
+        y1: y + h,
+    })
+}
+
+/// The kinds of piece a room may get.
+#[derive(Clone, Copy)]
+enum Kind {
+    Bed,
+    Sofa,
+    LowBox,
+    Table,
+    Shelf,
+    WallShelf,
+}
+
+fn make(kind: Kind, room: Rect, rng: &mut ChaCha8Rng) -> Option<Piece> {
+    let c = |m: f64| (m / RES).round() as i32;
+    let mut along = |len: f64, depth: f64| against_wall(room, c(len), c(depth), rng);
+    Some(match kind {
+        Kind::Bed => block("low_boxes", along(2.0, 1.5)?, 0.5),
+        Kind::Sofa => block("low_boxes", along(1.9, 0.85)?, 0.8),
+        Kind::LowBox => {
+            let len = rng.random_range(0.6..1.2);
+            let h = rng.random_range(0.4..0.8);
+            block("low_boxes", against_wall(room, c(len), c(0.6), rng)?, h)
+        }
+        Kind::Table => {
+            let (w, h) = (rng.random_range(1.2..1.7), rng.random_range(0.75..0.95));
+            let top = rng.random_range(0.72..0.76);
+            table(free_standing(room, c(w), c(h), c(0.9), rng)?, top)
+        }
+        Kind::Shelf => {
+            let len = rng.random_range(0.8..2.0);
+            let h = rng.random_range(1.9..2.2);
+            block("full_shelves", against_wall(room, c(len), c(0.4), rng)?, h)
+        }
+        Kind::WallShelf => wall_shelf(against_wall(
+            room,
+            c(rng.random_range(1.0..2.0)),
+            c(0.3),
+            rng,
+        )?),
+    })
+}
+
+/// Furnishes every room according to the style.
+fn furnish(plan: &mut Plan, style: Style, rng: &mut ChaCha8Rng) {
+    let rooms = plan.rooms.clone();
+    for (i, &room) in rooms.iter().enumerate() {
+        let is_hub = plan.hub == Some(i);
+        let kinds: Vec<Kind> = match (style, is_hub) {
+            (Style::Apartment, _) => {
+                let mut k = vec![Kind::WallShelf, Kind::Shelf, Kind::LowBox];
+                if room.area_m2() > 14.0 {
+                    k.extend([Kind::Sofa, Kind::Table, Kind::LowBox]);
+                } else {
+                    k.push(Kind::Bed);
+                }
+                k
+            }
+            (Style::Office, true) => {
+                place_cubicles(plan, room, rng);
+                vec![Kind::Shelf, Kind::Shelf, Kind::WallShelf, Kind::LowBox]
+            }
+            (Style::Office, false) => vec![Kind::Table, Kind::Shelf, Kind::WallShelf, Kind::LowBox],
+            (Style::Corridor, true) => vec![Kind::WallShelf, Kind::WallShelf, Kind::LowBox],
+            (Style::Corridor, false) => {
+                vec![Kind::Table, Kind::Shelf, Kind::WallShelf, Kind::LowBox]
+            }
+            (Style::Warehouse, true) => {
+                place_shelf_rows(plan, room, rng);
+                vec![Kind::LowBox, Kind::LowBox, Kind::LowBox, Kind::WallShelf]
+            }
+            (Style::Warehouse, false) => vec![Kind::Table, Kind::Shelf, Kind::LowBox],
+        };
+        for kind in kinds {
+            for _attempt in 0..12 {
+                if let Some(piece) = make(kind, room, rng) {
+                    if plan.try_place(room, &piece) {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Cubicle rows across the open-plan room, with 1.5 m aisles around them.
+fn place_cubicles(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
+    let aisle = 30;
+    let unit_h = 61;
+    let mut y = room.y0 + aisle;
+    while y + unit_h + aisle <= room.y1 {
+        let max_bays = (room.w() - 2 * aisle) / 40;
+        if max_bays >= 2 {
+            let bays = rng.random_range(2..=max_bays.min(4));
+            let height = rng.random_range(1.2..1.5);
+            let x = rng.random_range(room.x0 + aisle..=room.x1 - aisle - bays * 40 - 1);
+            let piece = cubicles(x, y, bays, height);
+            plan.try_place(room, &piece);
+        }
+        y += unit_h + aisle;
+    }
+}
+
+/// Rows of back-to-back full-height racks (1 m deep) along the hall's longer side, 2 m aisles,
+/// 2.5 m cross-aisles at both ends.
+fn place_shelf_rows(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
+    let (depth, aisle, end) = (20, 40, 50);
+    let along_x = room.w() >= room.h();
+    let (len, across) = if along_x {
+        (room.w(), room.h())
+    } else {
+        (room.h(), room.w())
+    };
+    let row_len = len - 2 * end;
+    if row_len < 40 {
+        return;
+    }
+    let mut pos = aisle;
+    while pos + depth + aisle <= across {
+        let height = rng.random_range(2.0..2.3);
+        let r = if along_x {
+            Rect {
+                x0: room.x0 + end,
+                y0: room.y0 + pos,
+                x1: room.x1 - end,
+                y1: room.y0 + pos + depth,
+            }
+        } else {
+            Rect {
+                x0: room.x0 + pos,
+                y0: room.y0 + end,
+                x1: room.x0 + pos + depth,
+                y1: room.y1 - end,
+            }
+        };
+        // Racks are open shelving in reality; a closed block is the conservative obstacle.
+        plan.try_place(room, &block("shelf_rows", r, height));
+        pos += depth + aisle;
+    }
+}
+
+/// The generated scenes shipped in `scenes/`: `(name, style, seed, area m²)`.
+pub fn shipped_generated() -> Vec<(&'static str, Style, u64, f64)> {
+    vec![
+        ("apartment_small", Style::Apartment, 3, 60.0),
+        ("apartment_loop", Style::Apartment, 11, 120.0),
+        ("office_large", Style::Office, 5, 380.0),
+        ("corridor_rooms", Style::Corridor, 2, 150.0),
+        ("warehouse", Style::Warehouse, 4, 250.0),
+        ("office_small", Style::Office, 8, 110.0),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::scene::ground_truth::GroundTruth;
+
+    #[test]
+    fn same_seed_same_mesh_different_seed_differs() {
+        for style in Style::ALL {
+            let a = generate(style, 1, 80.0).unwrap();
+            let b = generate(style, 1, 80.0).unwrap();
+            let c = generate(style, 2, 80.0).unwrap();
+            assert_eq!(a.mesh, b.mesh, "{style:?}");
+            assert_eq!(a.spawn, b.spawn);
+            assert_ne!(a.mesh, c.mesh, "{style:?}");
+        }
+    }
+
+    #[test]
+    fn office_has_every_furniture_height() {
+        let g = generate(Style::Office, 5, 380.0).unwrap();
+        for f in [
+            "cubicles",
+            "tables",
+            "wall_shelves",
+            "low_boxes",
+            "full_shelves",
+            "loop",
+        ] {
+            assert!(
+                g.features.iter().any(|x| x == f),
+                "missing {f}: {:?}",
+                g.features
+            );
+        }
+        // Heights of horizontal faces: table tops, wall-shelf undersides, partition tops.
+        let flat_z: Vec<f32> = g
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| g.mesh.vertices[i as usize].z))
+            .filter(|z| z[0] == z[1] && z[1] == z[2])
+            .map(|z| z[0])
+            .collect();
+        let has = |lo: f32, hi: f32| flat_z.iter().any(|&z| z >= lo && z <= hi);
+        assert!(has(0.72, 0.76), "table undersides");
+        assert!(has(1.4, 1.4), "wall shelf undersides above 1.3 m");
+        assert!(has(1.2, 1.5), "cubicle partitions");
+        assert!(has(2.5, 2.5) && has(0.0, 0.0), "walls and floor");
+    }
+
+    #[test]
+    fn area_is_respected_and_checked() {
+        for style in Style::ALL {
+            for area in [25.0, 150.0, 600.0] {
+                let g = generate(style, 9, area).unwrap();
+                let (min, max) = g.mesh.bounds().unwrap();
+                let footprint = (max.x - min.x) * (max.y - min.y);
+                assert!(
+                    (footprint / area - 1.0).abs() < 0.15,
+                    "{style:?} {area}: {footprint}"
+                );
+            }
+        }
+        assert_eq!(
+            generate(Style::Office, 1, 10.0).unwrap_err().to_string(),
+            "scene area 10 m² is outside [20, 2000] m²"
+        );
+        assert!(generate(Style::Office, 1, 2500.0).is_err());
+        assert_eq!(
+            Style::parse("castle").unwrap_err().to_string(),
+            "unknown scene style `castle` (expected apartment, office, corridor or warehouse)"
+        );
+    }
+
+    #[test]
+    fn every_room_is_in_the_explorable_region() {
+        let cfg = Config::default();
+        for (i, style) in Style::ALL.into_iter().enumerate() {
+            let g = generate(style, 20 + i as u64, 140.0).unwrap();
+            let gt = GroundTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
+            assert!(g.rooms.len() >= 2, "{style:?}");
+            assert!(g.doors >= g.rooms.len() - 1);
+            assert!(
+                g.loops >= 1 && g.features.contains(&"loop".to_string()),
+                "{style:?}"
+            );
+            for r in &g.rooms {
+                let centre_row = (r[1] + r[3]) / 2.0;
+                let reached = (0..100).any(|k| {
+                    let x = r[0] + (r[2] - r[0]) * (k as f64 + 0.5) / 100.0;
+                    let c = gt
+                        .grid
+                        .cell_of(nalgebra::Point2::new(x, centre_row))
+                        .unwrap();
+                    gt.in_region(gt.grid.index(c))
+                });
+                assert!(reached, "{style:?} room {r:?}");
+            }
+            let c = gt.grid.index(gt.grid.cell_of(g.spawn.position()).unwrap());
+            assert!(gt.clearance_m(c) >= 0.5, "{style:?}");
+        }
+    }
+}

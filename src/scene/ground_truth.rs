@@ -1,0 +1,606 @@
+//! The ground truth the metrics compare against: the mesh voxelised on the map grid, obstacle columns,
+//! the explorable region around the spawn, surface voxels and obstacle clearance.
+//!
+//! Voxelisation is an exact triangle–box separating-axis test in grid units, with vertices snapped to
+//! 1e-4 of a voxel and voxels treated as half-open `[i, i+1)`: a wall face lying exactly on a voxel
+//! boundary (common: generated and imported scenes sit on a 0.05 m raster) marks only the voxel on
+//! its upper side, never both, and floating-point noise in the grid origin cannot flip that choice.
+
+use super::{Scene, TriMesh};
+use crate::config::Config;
+use crate::error::{Error, Result};
+use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::Pose2;
+use nalgebra::Point2;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Vertices are snapped to this fraction of a voxel before the overlap test.
+const SNAP: f64 = 1e-4;
+/// A voxel `[i, i+1)` is tested as the closed box `[i, i + 1 - OPEN]` (OPEN is half a snap step).
+const OPEN: f64 = 0.5 * SNAP;
+
+/// Ground truth of one scene on the map grid.
+#[derive(Clone, Debug)]
+pub struct GroundTruth {
+    pub grid: GridSpec,
+    pub spawn: Pose2,
+    occupied: Vec<bool>,
+    obstacle: Vec<bool>,
+    region: Vec<bool>,
+    region_cells: usize,
+    band: std::ops::Range<usize>,
+    surface: Vec<u32>,
+    clearance: Vec<f32>,
+}
+
+impl GroundTruth {
+    /// Voxelises `mesh` on the grid covering its xy bounds ± `map.margin_m`, up to `map.band_max_m`,
+    /// validates or chooses the spawn, and flood-fills the explorable region from it.
+    pub fn build(mesh: &TriMesh, spawn: Option<Pose2>, cfg: &Config) -> Result<GroundTruth> {
+        let (min, max) = mesh
+            .bounds()
+            .ok_or_else(|| Error::Runtime("ground truth of an empty mesh".into()))?;
+        let m = cfg.map.margin_m;
+        let grid = GridSpec::covering(
+            Point2::new(min.x - m, min.y - m),
+            Point2::new(max.x + m, max.y + m),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        // One byte per voxel: refuse grids that would need gigabytes rather than abort on allocation.
+        const MAX_VOXELS: usize = 400_000_000;
+        if grid.voxels() > MAX_VOXELS {
+            return Err(Error::usage(format!(
+                "the scene's ground-truth grid ({} × {} × {} voxels) is too large; raise map.voxel_m",
+                grid.nx, grid.ny, grid.nz
+            )));
+        }
+        let occupied = voxelise(mesh, &grid);
+        let robot_layers = grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m);
+        let cells = grid.cells();
+        let obstacle: Vec<bool> = (0..cells)
+            .map(|c| robot_layers.clone().any(|iz| occupied[iz * cells + c]))
+            .collect();
+        let clearance: Vec<f32> = distance_transform(&obstacle, grid.nx, grid.ny)
+            .into_iter()
+            .map(|d2| {
+                if d2.is_finite() {
+                    (d2.sqrt() * grid.res) as f32
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
+
+        let spawn = match spawn {
+            Some(s) => {
+                let inside_mesh = s.x >= min.x && s.x <= max.x && s.y >= min.y && s.y <= max.y;
+                let cell = grid
+                    .cell_of(s.position())
+                    .filter(|_| inside_mesh && s.x.is_finite() && s.y.is_finite())
+                    .ok_or_else(|| {
+                        Error::usage(format!(
+                            "spawn ({}, {}) is outside the scene bounds [{:.2}, {:.2}] × [{:.2}, {:.2}]",
+                            s.x, s.y, min.x, max.x, min.y, max.y
+                        ))
+                    })?;
+                let c = clearance[grid.index(cell)];
+                if (c as f64) < cfg.robot.radius_m {
+                    return Err(Error::usage(format!(
+                        "spawn ({}, {}) is inside an obstacle or closer than the robot radius ({} m) to one (clearance {:.2} m)",
+                        s.x, s.y, cfg.robot.radius_m, c
+                    )));
+                }
+                s
+            }
+            None => auto_spawn(&grid, &obstacle, &clearance)?,
+        };
+
+        let start = grid.index(
+            grid.cell_of(spawn.position())
+                .expect("spawn is in the grid"),
+        );
+        let reached = flood_fill_4(&grid, &obstacle, start);
+        let mut region = reached.clone();
+        for (i, _) in reached.iter().enumerate().filter(|(_, &r)| r) {
+            let c = grid.cell(i);
+            for (dx, dy) in NEIGHBOURS_8 {
+                if let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) {
+                    region[j] = true;
+                }
+            }
+        }
+        let region_cells = region.iter().filter(|&&r| r).count();
+        let band = grid.layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
+        let surface: Vec<u32> = band
+            .clone()
+            .flat_map(|iz| (0..cells).map(move |c| (iz, c)))
+            .filter(|&(iz, c)| region[c] && occupied[iz * cells + c])
+            .map(|(iz, c)| (iz * cells + c) as u32)
+            .collect();
+        Ok(GroundTruth {
+            grid,
+            spawn,
+            occupied,
+            obstacle,
+            region,
+            region_cells,
+            band,
+            surface,
+            clearance,
+        })
+    }
+
+    /// Whether any triangle overlaps voxel `voxel` (layers 0..nz).
+    pub fn occupied(&self, voxel: usize) -> bool {
+        self.occupied[voxel]
+    }
+
+    /// Whether the cell has an occupied voxel in the robot's body band `[band_min_m, robot.height_m]`.
+    pub fn obstacle_column(&self, cell: usize) -> bool {
+        self.obstacle[cell]
+    }
+
+    /// Whether the cell belongs to the explorable region.
+    pub fn in_region(&self, cell: usize) -> bool {
+        self.region[cell]
+    }
+
+    pub fn region_cells(&self) -> usize {
+        self.region_cells
+    }
+
+    /// The voxel layers of the height band `[band_min_m, band_max_m]`.
+    pub fn band_layers(&self) -> std::ops::Range<usize> {
+        self.band.clone()
+    }
+
+    /// Region cells × band layers × voxel volume, m³.
+    pub fn explorable_volume_m3(&self) -> f64 {
+        self.region_cells as f64 * self.band.len() as f64 * self.grid.voxel_volume()
+    }
+
+    /// Occupied voxels in the band layers whose cell is in the region, ascending.
+    pub fn surface_voxels(&self) -> &[u32] {
+        &self.surface
+    }
+
+    /// Distance from the cell centre to the nearest obstacle-column cell centre, metres
+    /// (`f32::INFINITY` if there is none).
+    pub fn clearance_m(&self, cell: usize) -> f32 {
+        self.clearance[cell]
+    }
+}
+
+/// Marks every voxel that a triangle overlaps. Parallel over layers; each layer is computed
+/// independently, so the result does not depend on the thread count.
+fn voxelise(mesh: &TriMesh, grid: &GridSpec) -> Vec<bool> {
+    let snap = |v: f64| (v / SNAP).round() * SNAP;
+    let tris: Vec<[[f64; 3]; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            t.map(|i| {
+                let p = mesh.vertices[i as usize];
+                [
+                    snap((p.x as f64 - grid.origin_x) / grid.res),
+                    snap((p.y as f64 - grid.origin_y) / grid.res),
+                    snap(p.z as f64 / grid.res),
+                ]
+            })
+        })
+        .collect();
+    let (nx, ny) = (grid.nx, grid.ny);
+    let half = 0.5 * (1.0 - OPEN);
+    let layers: Vec<Vec<bool>> = (0..grid.nz)
+        .into_par_iter()
+        .map(|iz| {
+            let mut layer = vec![false; nx * ny];
+            let z0 = iz as f64;
+            for tri in &tris {
+                let lo = |k: usize| tri.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
+                let hi = |k: usize| tri.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
+                if lo(2) > z0 + 1.0 - OPEN || hi(2) < z0 {
+                    continue;
+                }
+                let range = |k: usize, n: usize| {
+                    let a = lo(k).floor().max(0.0);
+                    let b = hi(k).floor().min(n as f64 - 1.0);
+                    (a <= b).then_some(a as usize..=b as usize)
+                };
+                let (Some(xs), Some(ys)) = (range(0, nx), range(1, ny)) else {
+                    continue;
+                };
+                for iy in ys {
+                    for ix in xs.clone() {
+                        let cell = iy * nx + ix;
+                        if !layer[cell] {
+                            let centre = [ix as f64 + half, iy as f64 + half, z0 + half];
+                            layer[cell] = triangle_box_overlap(centre, half, tri);
+                        }
+                    }
+                }
+            }
+            layer
+        })
+        .collect();
+    layers.concat()
+}
+
+/// Exact separating-axis test (Akenine-Möller) of a triangle against the cube `centre ± half`.
+/// Touching counts as overlapping, up to a tolerance far below the snap step.
+pub fn triangle_box_overlap(centre: [f64; 3], half: f64, tri: &[[f64; 3]; 3]) -> bool {
+    let v: [[f64; 3]; 3] = tri.map(|p| [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]]);
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let separated = |axis: [f64; 3]| {
+        let r = half * (axis[0].abs() + axis[1].abs() + axis[2].abs());
+        let tol = 1e-7 * (axis[0].abs() + axis[1].abs() + axis[2].abs());
+        let p = v.map(|q| dot(axis, q));
+        let (mn, mx) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+        mn > r + tol || mx < -r - tol
+    };
+    // The box's face normals.
+    for k in 0..3 {
+        let mut axis = [0.0; 3];
+        axis[k] = 1.0;
+        if separated(axis) {
+            return false;
+        }
+    }
+    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
+    // The triangle's normal.
+    let n = [
+        e[0][1] * e[1][2] - e[0][2] * e[1][1],
+        e[0][2] * e[1][0] - e[0][0] * e[1][2],
+        e[0][0] * e[1][1] - e[0][1] * e[1][0],
+    ];
+    if separated(n) {
+        return false;
+    }
+    // Cross products of box axes and triangle edges.
+    for ed in e {
+        for axis in [
+            [0.0, -ed[2], ed[1]],
+            [ed[2], 0.0, -ed[0]],
+            [-ed[1], ed[0], 0.0],
+        ] {
+            if separated(axis) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Exact squared Euclidean distance transform (Felzenszwalb–Huttenlocher), in cells², from every
+/// cell to the nearest `true` cell; `f64::INFINITY` where there is none.
+pub fn distance_transform(sites: &[bool], nx: usize, ny: usize) -> Vec<f64> {
+    const FAR: f64 = 1e20;
+    // Columns first (transposed so each column is contiguous), then rows.
+    let mut cols = vec![FAR; nx * ny];
+    for iy in 0..ny {
+        for ix in 0..nx {
+            if sites[iy * nx + ix] {
+                cols[ix * ny + iy] = 0.0;
+            }
+        }
+    }
+    cols.par_chunks_mut(ny).for_each(edt_1d);
+    let mut rows = vec![0.0; nx * ny];
+    for ix in 0..nx {
+        for iy in 0..ny {
+            rows[iy * nx + ix] = cols[ix * ny + iy];
+        }
+    }
+    rows.par_chunks_mut(nx).for_each(edt_1d);
+    rows.into_iter()
+        .map(|d| if d >= FAR * 0.5 { f64::INFINITY } else { d })
+        .collect()
+}
+
+/// One 1D pass: `f[q] ← min_p (q − p)² + f[p]` via the lower envelope of parabolas.
+fn edt_1d(f: &mut [f64]) {
+    let n = f.len();
+    if n == 0 {
+        return;
+    }
+    let input = f.to_vec();
+    let mut v = vec![0usize; n];
+    let mut z = vec![0.0f64; n + 1];
+    let mut k = 0;
+    z[0] = f64::NEG_INFINITY;
+    z[1] = f64::INFINITY;
+    for q in 1..n {
+        loop {
+            let p = v[k];
+            let s = ((input[q] + (q * q) as f64) - (input[p] + (p * p) as f64))
+                / (2.0 * (q as f64 - p as f64));
+            if s <= z[k] && k > 0 {
+                k -= 1;
+                continue;
+            }
+            if s <= z[k] {
+                // k == 0: the new parabola replaces the first one entirely.
+                v[0] = q;
+                z[1] = f64::INFINITY;
+                break;
+            }
+            k += 1;
+            v[k] = q;
+            z[k] = s;
+            z[k + 1] = f64::INFINITY;
+            break;
+        }
+    }
+    k = 0;
+    for (q, out) in f.iter_mut().enumerate() {
+        while z[k + 1] < q as f64 {
+            k += 1;
+        }
+        let p = v[k];
+        let d = q as f64 - p as f64;
+        *out = d * d + input[p];
+    }
+}
+
+/// The 4-connected obstacle-free cells reachable from `start`.
+fn flood_fill_4(grid: &GridSpec, obstacle: &[bool], start: usize) -> Vec<bool> {
+    let mut seen = vec![false; grid.cells()];
+    if obstacle[start] {
+        return seen;
+    }
+    let mut stack = vec![start];
+    seen[start] = true;
+    while let Some(i) = stack.pop() {
+        let c = grid.cell(i);
+        for &(dx, dy) in &NEIGHBOURS_8[..4] {
+            if let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) {
+                if !seen[j] && !obstacle[j] {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    seen
+}
+
+/// The free cell of largest clearance (ties → lowest index) in the largest 4-connected free region,
+/// preferring regions that do not touch the grid border (the scene's outside) when one exists.
+fn auto_spawn(grid: &GridSpec, obstacle: &[bool], clearance: &[f32]) -> Result<Pose2> {
+    let n = grid.cells();
+    let mut label = vec![u32::MAX; n];
+    // (size, touches border, best cell)
+    let mut regions: Vec<(usize, bool, usize)> = Vec::new();
+    for start in 0..n {
+        if obstacle[start] || label[start] != u32::MAX {
+            continue;
+        }
+        let id = regions.len() as u32;
+        let (mut size, mut border, mut best) = (0, false, start);
+        let mut stack = vec![start];
+        label[start] = id;
+        while let Some(i) = stack.pop() {
+            size += 1;
+            let c = grid.cell(i);
+            border |=
+                c.x == 0 || c.y == 0 || c.x as usize == grid.nx - 1 || c.y as usize == grid.ny - 1;
+            if clearance[i] > clearance[best] || (clearance[i] == clearance[best] && i < best) {
+                best = i;
+            }
+            for &(dx, dy) in &NEIGHBOURS_8[..4] {
+                if let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) {
+                    if !obstacle[j] && label[j] == u32::MAX {
+                        label[j] = id;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        regions.push((size, border, best));
+    }
+    let any_enclosed = regions.iter().any(|r| !r.1);
+    let chosen = regions
+        .iter()
+        .filter(|r| !(any_enclosed && r.1))
+        .fold(None::<&(usize, bool, usize)>, |acc, r| match acc {
+            Some(a) if a.0 >= r.0 => Some(a),
+            _ => Some(r),
+        })
+        .ok_or_else(|| {
+            Error::Runtime("the scene has no obstacle-free floor cell for a spawn".into())
+        })?;
+    let p = grid.center(grid.cell(chosen.2));
+    Ok(Pose2::new(p.x, p.y, 0.0))
+}
+
+/// What `scene info` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneInfo {
+    pub name: String,
+    pub path: String,
+    pub source: String,
+    pub content_hash: String,
+    pub bounds_min: [f64; 3],
+    pub bounds_max: [f64; 3],
+    pub vertices: usize,
+    pub triangles: usize,
+    /// The original floor height before the mesh was moved to z = 0, metres.
+    pub floor_z: f64,
+    pub explorable_area_m2: f64,
+    pub explorable_volume_m3: f64,
+    pub region_cells: usize,
+    pub surface_voxels: usize,
+    pub spawn: Pose2,
+    /// Whether the spawn came from the file (true) or was chosen automatically.
+    pub spawn_from_file: bool,
+    pub grid: GridSpec,
+}
+
+/// Summarises a scene and its ground truth.
+pub fn info(scene: &Scene, gt: &GroundTruth) -> SceneInfo {
+    let (min, max) = scene.mesh.bounds().unwrap_or_default();
+    SceneInfo {
+        name: scene.name.clone(),
+        path: scene.path.display().to_string(),
+        source: scene.source.clone(),
+        content_hash: scene.content_hash.clone(),
+        bounds_min: [min.x, min.y, min.z],
+        bounds_max: [max.x, max.y, max.z],
+        vertices: scene.mesh.vertices.len(),
+        triangles: scene.mesh.triangles.len(),
+        floor_z: scene.floor_z,
+        explorable_area_m2: gt.region_cells() as f64 * gt.grid.cell_area(),
+        explorable_volume_m3: gt.explorable_volume_m3(),
+        region_cells: gt.region_cells(),
+        surface_voxels: gt.surface_voxels().len(),
+        spawn: gt.spawn,
+        spawn_from_file: scene.spawn.is_some(),
+        grid: gt.grid,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::extrude::extrude_grid;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn edt_matches_brute_force() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for (nx, ny, p) in [(37, 23, 0.05), (16, 40, 0.3), (9, 9, 0.0), (30, 1, 0.1)] {
+            let sites: Vec<bool> = (0..nx * ny).map(|_| rng.random_bool(p)).collect();
+            let fast = distance_transform(&sites, nx, ny);
+            for (i, &fast_d2) in fast.iter().enumerate() {
+                let (x, y) = ((i % nx) as f64, (i / nx) as f64);
+                let brute = (0..nx * ny)
+                    .filter(|&j| sites[j])
+                    .map(|j| {
+                        let (a, b) = ((j % nx) as f64, (j / nx) as f64);
+                        (a - x).powi(2) + (b - y).powi(2)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert_eq!(fast_d2, brute, "{nx}×{ny} cell {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn sat_known_cases() {
+        let tri = [[0.0, 0.0, 0.5], [3.0, 0.0, 0.5], [0.0, 3.0, 0.5]];
+        assert!(triangle_box_overlap([0.5, 0.5, 0.5], 0.5, &tri));
+        // Beyond the hypotenuse x + y = 3: the box [2.6, 3.6]² is outside.
+        assert!(!triangle_box_overlap([3.1, 3.1, 0.5], 0.5, &tri));
+        // Its AABB overlaps, but the triangle's plane (z = 0.5) misses the box at z ∈ [1, 2].
+        assert!(!triangle_box_overlap([0.5, 0.5, 1.5], 0.5, &tri));
+        // A tilted triangle whose AABB covers the box but which passes beside it (edge axis).
+        let thin = [[0.0, 0.0, 0.0], [4.0, 4.0, 4.0], [4.0, 4.0, 4.1]];
+        assert!(!triangle_box_overlap([3.5, 0.5, 0.5], 0.5, &thin));
+        assert!(triangle_box_overlap([2.0, 2.0, 2.0], 0.5, &thin));
+    }
+
+    /// A 4 × 3 m room (inner), walls on the 0.1 m grid, extruded to 2.5 m.
+    fn box_room() -> TriMesh {
+        // 0.1 m raster: 1 solid ring around 40 × 30 free cells.
+        let (nx, ny) = (42, 32);
+        let solid: Vec<bool> = (0..nx * ny)
+            .map(|i| {
+                let (x, y) = (i % nx, i / nx);
+                x == 0 || y == 0 || x == nx - 1 || y == ny - 1
+            })
+            .collect();
+        extrude_grid(&solid, nx, ny, [0.0, 0.0], 0.1, 2.5)
+    }
+
+    #[test]
+    fn box_room_known_answers() {
+        let cfg = Config::default();
+        let mesh = box_room();
+        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        // Grid: 4.2 × 3.2 m + 0.5 m margin each side → 52 × 42 cells, 18 layers; 3.2 in f32 is
+        // 3.2000000477, so y rounds outwards to one more (empty) row.
+        assert_eq!((gt.grid.nx, gt.grid.ny, gt.grid.nz), (52, 43, 18));
+        // Inner wall faces at x = 0.1 and x = 4.1 mark cells ix 6 (upper side) and 46; the free
+        // interior without obstacle columns is ix 7..=45 (39) × iy 7..=35 (29); the region grows it
+        // by one ring: 41 × 31.
+        assert_eq!(gt.region_cells(), 41 * 31);
+        assert_eq!(gt.band_layers(), 1..18);
+        assert!((gt.explorable_volume_m3() - 41.0 * 31.0 * 17.0 * 0.001).abs() < 1e-9);
+        // Surface voxels: the ring of 2·41 + 2·29 = 140 wall cells × 17 band layers.
+        assert_eq!(gt.surface_voxels().len(), 140 * 17);
+        // Automatic spawn: max clearance in the room is 1.5 m (15 cells to the y walls), tied for
+        // ix 21..=31 on row iy 21; the lowest index wins: cell (21, 21), centre (1.65, 1.65).
+        let s = gt.spawn;
+        assert!(
+            (s.x - 1.65).abs() < 1e-9 && (s.y - 1.65).abs() < 1e-9,
+            "{s:?}"
+        );
+        let c = gt.grid.index(gt.grid.cell_of(s.position()).unwrap());
+        assert!(
+            (gt.clearance_m(c) - 1.5).abs() < 1e-6,
+            "{}",
+            gt.clearance_m(c)
+        );
+        // The floor (layer 0) is occupied under the room but is not an obstacle.
+        assert!(gt.occupied(c) && !gt.obstacle_column(c));
+        assert!(gt.in_region(c) && !gt.in_region(0));
+        assert!(gt.surface_voxels().windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn spawn_validation_names_the_spawn() {
+        let cfg = Config::default();
+        let mesh = box_room();
+        let e = GroundTruth::build(&mesh, Some(Pose2::new(9.0, 1.0, 0.0)), &cfg).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "spawn (9, 1) is outside the scene bounds [0.00, 4.20] × [0.00, 3.20]"
+        );
+        assert_eq!(e.exit_code(), 2);
+        let e = GroundTruth::build(&mesh, Some(Pose2::new(0.25, 1.5, 0.0)), &cfg).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "spawn (0.25, 1.5) is inside an obstacle or closer than the robot radius (0.25 m) to one (clearance 0.10 m)"
+        );
+        let gt = GroundTruth::build(&mesh, Some(Pose2::new(1.0, 1.0, 0.3)), &cfg).unwrap();
+        assert_eq!(gt.spawn, Pose2::new(1.0, 1.0, 0.3));
+        assert_eq!(gt.region_cells(), 41 * 31);
+    }
+
+    #[test]
+    fn overhangs_and_high_shelves() {
+        // A table top at 0.72–0.76 m is an obstacle column; a shelf at 1.4–1.7 m is not.
+        let cfg = Config::default();
+        let mut mesh = box_room();
+        mesh.push_box([1.0, 1.0, 0.72], [1.6, 1.6, 0.76]);
+        mesh.push_box([3.0, 0.1, 1.4], [4.1, 0.4, 1.7]);
+        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        let cell = |x: f64, y: f64| gt.grid.index(gt.grid.cell_of(Point2::new(x, y)).unwrap());
+        assert!(gt.obstacle_column(cell(1.3, 1.3)));
+        assert!(!gt.obstacle_column(cell(3.5, 0.25)));
+        let layer7 = 7 * gt.grid.cells() + cell(1.3, 1.3);
+        assert!(gt.occupied(layer7) && !gt.occupied(layer7 - 2 * gt.grid.cells()));
+    }
+
+    #[test]
+    fn results_do_not_depend_on_thread_count() {
+        let cfg = Config::default();
+        let mesh = box_room();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| GroundTruth::build(&mesh, None, &cfg).unwrap());
+        let many = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap()
+            .install(|| GroundTruth::build(&mesh, None, &cfg).unwrap());
+        assert_eq!(one.occupied, many.occupied);
+        assert_eq!(one.surface, many.surface);
+        assert_eq!(one.spawn, many.spawn);
+    }
+}

@@ -1,0 +1,496 @@
+//! ROS map_server importer: a `.yaml` description plus a PGM occupancy image, extruded to walls.
+//!
+//! Cells follow map_server's trinary interpretation: with `p = (max - v) / max` (or `v / max` if
+//! `negate`), a cell is occupied if `p > occupied_thresh`, free if `p < free_thresh`, else unknown.
+//! Unknown cells are solid unless `scene.unknown_as_free`, so that the scene is closed. The map is
+//! cropped to the bounding box of its known (free or occupied) cells; outside the crop counts as solid.
+
+use super::extrude::extrude_grid;
+use super::TriMesh;
+use crate::config::SceneConfig;
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// The parsed `.yaml` of a map_server map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapYaml {
+    pub image: PathBuf,
+    pub resolution: f64,
+    pub origin: [f64; 3],
+    pub negate: bool,
+    pub occupied_thresh: f64,
+    pub free_thresh: f64,
+    /// `trinary` (default), `scale` or `raw`.
+    pub mode: String,
+}
+
+/// An 8- or 16-bit grey image; row 0 is the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pgm {
+    pub width: usize,
+    pub height: usize,
+    pub max_value: u16,
+    pub pixels: Vec<u16>,
+}
+
+/// The result of an import.
+#[derive(Clone, Debug)]
+pub struct ImportedMap {
+    pub mesh: TriMesh,
+    /// The yaml bytes followed by the image bytes: what the scene's content hash covers.
+    pub hash_bytes: Vec<u8>,
+    /// Cells of the cropped grid that are free floor.
+    pub free_cells: usize,
+}
+
+/// Imports the map described by the `.yaml` at `path`.
+pub fn import(path: &Path, cfg: &SceneConfig) -> Result<ImportedMap> {
+    let yaml_bytes = super::read_nonempty(path)?;
+    let text = std::str::from_utf8(&yaml_bytes)
+        .map_err(|_| Error::scene(path, "map yaml is not UTF-8 text"))?;
+    let yaml = parse_yaml(path, text)?;
+    let image_path = path.parent().unwrap_or(Path::new(".")).join(&yaml.image);
+    let image_bytes = super::read_nonempty(&image_path)?;
+    let pgm = parse_pgm(&image_path, &image_bytes)?;
+    let (mesh, free_cells) = extrude_map(path, &yaml, &pgm, cfg)?;
+    let mut hash_bytes = yaml_bytes;
+    hash_bytes.extend_from_slice(&image_bytes);
+    Ok(ImportedMap {
+        mesh,
+        hash_bytes,
+        free_cells,
+    })
+}
+
+/// Parses the flat map_server yaml (`key: value` lines, `#` comments, `origin: [x, y, yaw]`).
+pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
+    let mut image = None;
+    let mut resolution = None;
+    let mut origin = None;
+    let mut negate = false;
+    let mut occupied_thresh = None;
+    let mut free_thresh = None;
+    let mut mode = "trinary".to_string();
+    let number = |key: &str, v: &str| -> Result<f64> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| Error::scene(path, format!("key `{key}`: `{v}` is not a number")))
+    };
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some((key, value)) = line.split_once(':') else {
+            return Err(Error::scene(
+                path,
+                format!("expected `key: value`, got `{line}`"),
+            ));
+        };
+        let key = key.trim();
+        let value = value.trim().trim_matches(|c| c == '"' || c == '\'');
+        match key {
+            "image" => image = Some(PathBuf::from(value)),
+            "resolution" => resolution = Some(number(key, value)?),
+            "origin" => {
+                let inner = value
+                    .strip_prefix('[')
+                    .and_then(|v| v.strip_suffix(']'))
+                    .ok_or_else(|| {
+                        Error::scene(
+                            path,
+                            format!("key `origin`: expected [x, y, yaw], got `{value}`"),
+                        )
+                    })?;
+                let parts: Vec<f64> = inner
+                    .split(',')
+                    .map(|p| number(key, p.trim()))
+                    .collect::<Result<_>>()?;
+                let [x, y, yaw] = parts[..] else {
+                    return Err(Error::scene(
+                        path,
+                        format!("key `origin`: expected [x, y, yaw], got `{value}`"),
+                    ));
+                };
+                origin = Some([x, y, yaw]);
+            }
+            "negate" => {
+                negate = match value {
+                    "0" | "false" | "False" => false,
+                    "1" | "true" | "True" => true,
+                    _ => {
+                        return Err(Error::scene(
+                            path,
+                            format!("key `negate`: expected 0 or 1, got `{value}`"),
+                        ))
+                    }
+                }
+            }
+            "occupied_thresh" => occupied_thresh = Some(number(key, value)?),
+            "free_thresh" => free_thresh = Some(number(key, value)?),
+            "mode" => mode = value.to_string(),
+            // Other keys (e.g. map_server's `cost_translation_table`) do not affect geometry.
+            _ => {}
+        }
+    }
+    let missing = |key: &str| Error::scene(path, format!("missing key `{key}`"));
+    let resolution = resolution.ok_or_else(|| missing("resolution"))?;
+    if resolution <= 0.0 {
+        return Err(Error::scene(
+            path,
+            format!("key `resolution` must be positive, got {resolution}"),
+        ));
+    }
+    let origin = origin.ok_or_else(|| missing("origin"))?;
+    if origin[2].abs() > 1e-9 {
+        // Simplification: a rotated map would need a rotated grid; map_saver always writes yaw 0.
+        return Err(Error::scene(
+            path,
+            format!("key `origin`: yaw {} is not supported (only 0)", origin[2]),
+        ));
+    }
+    let occupied_thresh = occupied_thresh.ok_or_else(|| missing("occupied_thresh"))?;
+    let free_thresh = free_thresh.ok_or_else(|| missing("free_thresh"))?;
+    if !(0.0..=1.0).contains(&free_thresh)
+        || !(0.0..=1.0).contains(&occupied_thresh)
+        || free_thresh > occupied_thresh
+    {
+        return Err(Error::scene(
+            path,
+            format!("thresholds must satisfy 0 <= free_thresh ({free_thresh}) <= occupied_thresh ({occupied_thresh}) <= 1"),
+        ));
+    }
+    if !matches!(mode.as_str(), "trinary" | "scale" | "raw") {
+        return Err(Error::scene(
+            path,
+            format!("key `mode`: expected trinary, scale or raw, got `{mode}`"),
+        ));
+    }
+    Ok(MapYaml {
+        image: image.ok_or_else(|| missing("image"))?,
+        resolution,
+        origin,
+        negate,
+        occupied_thresh,
+        free_thresh,
+        mode,
+    })
+}
+
+/// Parses a binary (P5, 8 or 16 bit big-endian) or ASCII (P2) PGM.
+pub fn parse_pgm(path: &Path, bytes: &[u8]) -> Result<Pgm> {
+    let bad = |msg: &str| Error::scene(path, format!("not a valid PGM image: {msg}"));
+    let mut pos = 0;
+    // Header tokens, skipping whitespace and `#` comments.
+    let token = |pos: &mut usize| -> Option<String> {
+        loop {
+            while *pos < bytes.len() && bytes[*pos].is_ascii_whitespace() {
+                *pos += 1;
+            }
+            if *pos < bytes.len() && bytes[*pos] == b'#' {
+                while *pos < bytes.len() && bytes[*pos] != b'\n' {
+                    *pos += 1;
+                }
+            } else {
+                break;
+            }
+        }
+        let start = *pos;
+        while *pos < bytes.len() && !bytes[*pos].is_ascii_whitespace() {
+            *pos += 1;
+        }
+        (start < *pos).then(|| String::from_utf8_lossy(&bytes[start..*pos]).into_owned())
+    };
+    let magic = token(&mut pos).ok_or_else(|| bad("no header"))?;
+    if magic != "P5" && magic != "P2" {
+        return Err(bad(&format!(
+            "magic `{}` (expected P5 or P2)",
+            magic.chars().take(8).collect::<String>()
+        )));
+    }
+    let mut dim = |what: &str| -> Result<usize> {
+        token(&mut pos)
+            .and_then(|t| t.parse::<usize>().ok())
+            .ok_or_else(|| bad(&format!("bad {what}")))
+    };
+    let width = dim("width")?;
+    let height = dim("height")?;
+    let max_value = dim("maximum value")?;
+    if width == 0 || height == 0 || width.saturating_mul(height) > 400_000_000 {
+        return Err(bad(&format!("unusable size {width} × {height}")));
+    }
+    if max_value == 0 || max_value > 65535 {
+        return Err(bad(&format!(
+            "maximum value {max_value} (expected 1..65535)"
+        )));
+    }
+    let n = width * height;
+    let pixels: Vec<u16> = if magic == "P5" {
+        pos += 1; // the single whitespace byte after the maximum value
+        let bytes_per = if max_value > 255 { 2 } else { 1 };
+        let data = bytes.get(pos..pos + n * bytes_per).ok_or_else(|| {
+            bad(&format!(
+                "pixel data is truncated ({} of {} bytes)",
+                bytes.len().saturating_sub(pos),
+                n * bytes_per
+            ))
+        })?;
+        if bytes_per == 1 {
+            data.iter().map(|&b| b as u16).collect()
+        } else {
+            data.chunks_exact(2)
+                .map(|c| u16::from_be_bytes([c[0], c[1]]))
+                .collect()
+        }
+    } else {
+        let text = std::str::from_utf8(&bytes[pos..]).map_err(|_| bad("P2 data is not text"))?;
+        let values: Vec<u16> = text
+            .split_whitespace()
+            .take(n)
+            .map(|t| t.parse::<u16>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| bad("P2 pixel value is not an integer"))?;
+        if values.len() < n {
+            return Err(bad(&format!(
+                "pixel data is truncated ({} of {n} values)",
+                values.len()
+            )));
+        }
+        values
+    };
+    if let Some(v) = pixels.iter().find(|&&v| v as usize > max_value) {
+        return Err(bad(&format!("pixel value {v} exceeds maximum {max_value}")));
+    }
+    Ok(Pgm {
+        width,
+        height,
+        max_value: max_value as u16,
+        pixels,
+    })
+}
+
+/// The three cell states of a map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellState {
+    Free,
+    Occupied,
+    Unknown,
+}
+
+/// Classifies one pixel as map_server does.
+pub fn classify(yaml: &MapYaml, max_value: u16, v: u16) -> CellState {
+    let max = max_value as f64;
+    let p = if yaml.mode == "raw" {
+        // Raw mode: the value is the occupancy percentage; anything above 100 is unknown.
+        if v > 100 {
+            return CellState::Unknown;
+        }
+        v as f64 / 100.0
+    } else if yaml.negate {
+        v as f64 / max
+    } else {
+        (max - v as f64) / max
+    };
+    if p > yaml.occupied_thresh {
+        CellState::Occupied
+    } else if p < yaml.free_thresh {
+        CellState::Free
+    } else {
+        CellState::Unknown
+    }
+}
+
+/// Crops the map to its known cells and extrudes it; returns the mesh and the free cell count.
+fn extrude_map(
+    path: &Path,
+    yaml: &MapYaml,
+    pgm: &Pgm,
+    cfg: &SceneConfig,
+) -> Result<(TriMesh, usize)> {
+    let (w, h) = (pgm.width, pgm.height);
+    // Grid row iy is image row h-1-iy: image row 0 is the top (max y).
+    let state =
+        |ix: usize, iy: usize| classify(yaml, pgm.max_value, pgm.pixels[(h - 1 - iy) * w + ix]);
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for iy in 0..h {
+        for ix in 0..w {
+            if state(ix, iy) != CellState::Unknown {
+                x0 = x0.min(ix);
+                y0 = y0.min(iy);
+                x1 = x1.max(ix + 1);
+                y1 = y1.max(iy + 1);
+            }
+        }
+    }
+    if x0 == usize::MAX {
+        return Err(Error::scene(
+            path,
+            "map has no known (free or occupied) cells",
+        ));
+    }
+    let (nx, ny) = (x1 - x0, y1 - y0);
+    let mut solid = vec![true; nx * ny];
+    let mut free_cells = 0;
+    for iy in 0..ny {
+        for ix in 0..nx {
+            let free = match state(x0 + ix, y0 + iy) {
+                CellState::Free => true,
+                CellState::Occupied => false,
+                CellState::Unknown => cfg.unknown_as_free,
+            };
+            solid[iy * nx + ix] = !free;
+            free_cells += free as usize;
+        }
+    }
+    if free_cells == 0 {
+        return Err(Error::scene(path, "map has no free cells"));
+    }
+    let origin = [
+        yaml.origin[0] + x0 as f64 * yaml.resolution,
+        yaml.origin[1] + y0 as f64 * yaml.resolution,
+    ];
+    let mesh = extrude_grid(&solid, nx, ny, origin, yaml.resolution, cfg.wall_height_m);
+    Ok((mesh, free_cells))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::scene::tests::data;
+
+    fn cfg() -> SceneConfig {
+        Config::default().scene
+    }
+
+    #[test]
+    fn small_house_imports_to_its_known_size() {
+        let s = crate::scene::load(&data("map.yaml"), &cfg()).unwrap();
+        let (min, max) = s.mesh.bounds().unwrap();
+        let (dx, dy) = (max.x - min.x, max.y - min.y);
+        assert!(
+            (dx - 19.0).abs() < 0.5 && (dy - 11.4).abs() < 0.5,
+            "{dx} × {dy}"
+        );
+        assert_eq!((min.z, max.z), (0.0, 2.5));
+        assert_eq!(s.source, "ros-map");
+        // Merged faces: far fewer triangles than the 250,000 pixels.
+        assert!(
+            s.mesh.triangles.len() < 40_000,
+            "{}",
+            s.mesh.triangles.len()
+        );
+        let yaml = std::fs::read(data("map.yaml")).unwrap();
+        let pgm = std::fs::read(data("map.pgm")).unwrap();
+        assert_eq!(
+            s.content_hash,
+            crate::scene::content_hash(&[yaml, pgm].concat())
+        );
+    }
+
+    #[test]
+    fn pgm_p2_p5_16bit_and_orientation() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // 3 × 2 map: top row free, bottom row occupied except one free cell at the left.
+        std::fs::write(d.join("m.pgm"), "P2\n# c\n3 2\n255\n254 254 254\n254 0 0\n").unwrap();
+        let yaml = "image: m.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\nnegate: 0\n\
+                    occupied_thresh: 0.65\nfree_thresh: 0.196\n";
+        std::fs::write(d.join("m.yaml"), yaml).unwrap();
+        let m = import(&d.join("m.yaml"), &cfg()).unwrap();
+        assert_eq!(m.free_cells, 4);
+        let (min, max) = m.mesh.bounds().unwrap();
+        assert_eq!((min.x, min.y, max.x, max.y), (1.0, 2.0, 2.5, 3.0));
+        // The floor: the top row y ∈ [2.5, 3] and the cell x ∈ [1, 1.5], y ∈ [2, 2.5].
+        let floor_area: f64 = floor_area(&m.mesh);
+        assert!((floor_area - 4.0 * 0.25).abs() < 1e-9, "{floor_area}");
+        let has_floor_at = |x: f32, y: f32| {
+            m.mesh.triangles.iter().any(|t| {
+                let v = t.map(|i| m.mesh.vertices[i as usize]);
+                v.iter().all(|p| p.z == 0.0) && point_in_tri(x, y, &v)
+            })
+        };
+        assert!(has_floor_at(1.25, 2.25));
+        assert!(!has_floor_at(2.25, 2.25));
+        assert!(has_floor_at(2.25, 2.75));
+
+        // The same map as 16-bit P5 gives the same mesh.
+        let mut p5 = b"P5 3 2 65535\n".to_vec();
+        for v in [65534u16, 65534, 65534, 65534, 0, 0] {
+            p5.extend_from_slice(&v.to_be_bytes());
+        }
+        std::fs::write(d.join("m16.pgm"), &p5).unwrap();
+        std::fs::write(d.join("m16.yaml"), yaml.replace("m.pgm", "m16.pgm")).unwrap();
+        let m16 = import(&d.join("m16.yaml"), &cfg()).unwrap();
+        assert_eq!(m16.mesh, m.mesh);
+    }
+
+    fn point_in_tri(x: f32, y: f32, v: &[nalgebra::Point3<f32>; 3]) -> bool {
+        let s = |a: &nalgebra::Point3<f32>, b: &nalgebra::Point3<f32>| {
+            (b.x - a.x) * (y - a.y) - (b.y - a.y) * (x - a.x)
+        };
+        let (d1, d2, d3) = (s(&v[0], &v[1]), s(&v[1], &v[2]), s(&v[2], &v[0]));
+        (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+    }
+
+    pub(crate) fn floor_area(m: &TriMesh) -> f64 {
+        m.triangles
+            .iter()
+            .map(|t| t.map(|i| m.vertices[i as usize].cast::<f64>()))
+            .filter(|v| v.iter().all(|p| p.z == 0.0))
+            .map(|[a, b, c]| 0.5 * (b - a).cross(&(c - a)).norm())
+            .sum()
+    }
+
+    #[test]
+    fn bad_maps_name_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let y = |name: &str, text: &str| {
+            let p = d.join(name);
+            std::fs::write(&p, text).unwrap();
+            import(&p, &cfg()).unwrap_err().to_string()
+        };
+        let base = "image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+        let p = |n: &str| d.join(n).display().to_string();
+        assert_eq!(
+            y("a.yaml", &base.replace("resolution: 0.05\n", "")),
+            format!("{}: missing key `resolution`", p("a.yaml"))
+        );
+        assert_eq!(
+            y("b.yaml", &base.replace("[0, 0, 0]", "[0, 0, 0.5]")),
+            format!(
+                "{}: key `origin`: yaw 0.5 is not supported (only 0)",
+                p("b.yaml")
+            )
+        );
+        assert_eq!(
+            y("c.yaml", &base.replace("0.05", "fine")),
+            format!("{}: key `resolution`: `fine` is not a number", p("c.yaml"))
+        );
+        let missing_image = y("d.yaml", base);
+        assert!(missing_image.starts_with(&p("m.pgm")), "{missing_image}");
+        std::fs::write(d.join("m.pgm"), b"P5 4 4 255\n\x00\x00").unwrap();
+        assert_eq!(
+            y("e.yaml", base),
+            format!(
+                "{}: not a valid PGM image: pixel data is truncated (2 of 16 bytes)",
+                p("m.pgm")
+            )
+        );
+        std::fs::write(d.join("m.pgm"), b"GIF89a....").unwrap();
+        assert_eq!(
+            y("f.yaml", base),
+            format!(
+                "{}: not a valid PGM image: magic `GIF89a..` (expected P5 or P2)",
+                p("m.pgm")
+            )
+        );
+        std::fs::write(d.join("m.pgm"), b"P2 2 1 255 205 205").unwrap();
+        assert_eq!(
+            y("g.yaml", base),
+            format!("{}: map has no known (free or occupied) cells", p("g.yaml"))
+        );
+    }
+}
