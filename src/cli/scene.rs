@@ -12,8 +12,8 @@ pub enum SceneCommand {
     /// Generate a furnished indoor scene and write it as OBJ (the same seed gives the same scene).
     #[command(after_help = "Example:\n  tensorscout scene generate --style office --seed 4 --area 300 -o office.obj")]
     Generate {
-        /// Layout style.
-        #[arg(long, value_enum)]
+        /// Layout style: apartment, office, corridor or warehouse.
+        #[arg(long, value_parser = parse_style)]
         style: generate::Style,
         /// Seed of the layout.
         #[arg(long, default_value_t = 1)]
@@ -102,13 +102,13 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
         } => {
             check_output(&output, force)?;
             let generated = generate::generate(style, seed, area)?;
-            let comments = generated.header_comments();
+            let comments = generated.header();
             scene::write_obj(&generated.mesh, Some(generated.spawn), &comments, &output)?;
             eprintln!(
                 "wrote {} ({} triangles, {} rooms)",
                 output.display(),
                 generated.mesh.triangles.len(),
-                generated.rooms
+                generated.rooms.len()
             );
             Ok(())
         }
@@ -142,7 +142,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&info)?);
             } else {
-                println!("{info}");
+                print_info(&info);
             }
             Ok(())
         }
@@ -157,4 +157,31 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn parse_style(s: &str) -> std::result::Result<generate::Style, String> {
+    generate::Style::parse(s).map_err(|e| e.to_string())
+}
+
+fn print_info(i: &scene::ground_truth::SceneInfo) {
+    println!("scene          {} ({})", i.name, i.path);
+    println!("source         {}  hash {}", i.source, i.content_hash);
+    println!(
+        "bounds         x {:.2} .. {:.2}  y {:.2} .. {:.2}  z {:.2} .. {:.2} m",
+        i.bounds_min[0], i.bounds_max[0], i.bounds_min[1], i.bounds_max[1], i.bounds_min[2], i.bounds_max[2]
+    );
+    println!("triangles      {} ({} vertices)", i.triangles, i.vertices);
+    println!("floor height   {:.3} m (moved to z = 0)", i.floor_z);
+    println!(
+        "explorable     {:.1} m² ({} cells), {:.1} m³ in the height band",
+        i.explorable_area_m2, i.region_cells, i.explorable_volume_m3
+    );
+    println!("surface voxels {}", i.surface_voxels);
+    println!(
+        "spawn          ({:.2}, {:.2}, yaw {:.2}){}",
+        i.spawn.x,
+        i.spawn.y,
+        i.spawn.yaw,
+        if i.spawn_from_file { "" } else { " (automatic or given)" }
+    );
 }
