@@ -1,0 +1,30 @@
+//! Ray casting and map integration throughput: rays per second on a synthetic furnished room.
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use tensorscout::sensor::raycast::testing::furnished_room;
+use tensorscout::sensor::{DepthCamera, DepthFrame, MeshBvh};
+use tensorscout::{Config, Pose2};
+
+fn rays(c: &mut Criterion) {
+    let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+    for (w, h) in [(80usize, 60usize), (640, 480)] {
+        let mut cfg = Config::default();
+        cfg.camera.width = w;
+        cfg.camera.height = h;
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut frame = DepthFrame::default();
+        let mut g = c.benchmark_group(format!("rays_{w}x{h}"));
+        g.throughput(Throughput::Elements((w * h) as u64));
+        let mut k = 0u32;
+        g.bench_function("cast", |b| {
+            b.iter(|| {
+                k = k.wrapping_add(1);
+                let yaw = k as f64 * 0.37;
+                cam.capture_into(&bvh, Pose2::new(4.0, 4.0, yaw), &mut frame);
+            })
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, rays);
+criterion_main!(benches);
