@@ -57,7 +57,8 @@ impl Layers {
         let m = &cfg.map;
         let robot_band = grid.layers_in(m.band_min_m, cfg.robot.height_m);
         let surface_band = grid.layers_in(m.band_min_m, m.band_max_m);
-        let min_known = ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
+        let min_known =
+            ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
         let radius = cfg.robot.radius_m + m.inflation_margin_m;
         let reach = (radius / grid.res).ceil() as i32;
         let mut inflation_offsets = Vec::new();

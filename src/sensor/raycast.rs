@@ -213,10 +213,8 @@ pub mod testing {
             [4, 6, 7, 5], // z max
         ];
         for f in FACES {
-            mesh.triangles
-                .push([base + f[0], base + f[1], base + f[2]]);
-            mesh.triangles
-                .push([base + f[0], base + f[2], base + f[3]]);
+            mesh.triangles.push([base + f[0], base + f[1], base + f[2]]);
+            mesh.triangles.push([base + f[0], base + f[2], base + f[3]]);
         }
     }
 
