@@ -233,6 +233,24 @@ mod tests {
     }
 
     #[test]
+    fn frames_do_not_depend_on_the_thread_count() {
+        let cam = camera(80, 60);
+        let bvh = MeshBvh::new(&crate::sensor::raycast::testing::furnished_room(8.0)).unwrap();
+        let pose = Pose2::new(3.1, 4.2, 0.9);
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let f = pool.install(|| cam.capture(&bvh, pose));
+            f.range.iter().map(|r| r.to_bits()).collect::<Vec<_>>()
+        };
+        let one = run(1);
+        assert_eq!(one, run(3));
+        assert!(one.iter().any(|&r| f32::from_bits(r).is_finite()));
+    }
+
+    #[test]
     fn capture_into_reuses_and_matches_capture() {
         let cam = camera(20, 10);
         let bvh = MeshBvh::new(&wall_mesh()).unwrap();
