@@ -14,6 +14,9 @@ use parry3d::shape::TriMesh as PTriMesh;
 /// The scene mesh with its bounding-volume hierarchy, built once per scene.
 pub struct MeshBvh {
     mesh: PTriMesh,
+    /// Per triangle: first vertex and the two edges from it, for a lean two-sided Möller–Trumbore test
+    /// (parry's generic triangle ray cast does more work than a depth camera needs).
+    tris: Vec<[PVector; 3]>,
 }
 
 impl MeshBvh {
@@ -49,13 +52,38 @@ impl MeshBvh {
             .collect();
         let mesh = PTriMesh::new(vertices, mesh.triangles.clone())
             .map_err(|e| Error::Runtime(format!("mesh rejected by the ray caster: {e}")))?;
-        Ok(MeshBvh { mesh })
+        let tris = (0..mesh.indices().len() as u32)
+            .map(|i| {
+                let t = mesh.triangle(i);
+                [t.a, t.b - t.a, t.c - t.a]
+            })
+            .collect();
+        Ok(MeshBvh { mesh, tris })
     }
 
     /// Distance along the unit direction `dir` from `origin` to the first triangle hit (front or back
     /// face), if one lies within `max_range`.
     #[inline]
     pub fn cast(&self, origin: Point3<f32>, dir: Vector3<f32>, max_range: f32) -> Option<f32> {
+        let ray = Ray::new(
+            PVector::new(origin.x, origin.y, origin.z),
+            PVector::new(dir.x, dir.y, dir.z),
+        );
+        self.mesh
+            .bvh()
+            .cast_ray(&ray, max_range, |i, best| {
+                ray_triangle(ray.origin, ray.dir, &self.tris[i as usize], best)
+            })
+            .map(|(_, t)| t)
+    }
+
+    /// The same query through parry's own triangle ray cast: the reference for [`MeshBvh::cast`].
+    pub fn cast_reference(
+        &self,
+        origin: Point3<f32>,
+        dir: Vector3<f32>,
+        max_range: f32,
+    ) -> Option<f32> {
         let ray = Ray::new(
             PVector::new(origin.x, origin.y, origin.z),
             PVector::new(dir.x, dir.y, dir.z),
@@ -103,6 +131,30 @@ impl MeshBvh {
         });
         hit
     }
+}
+
+/// Two-sided Möller–Trumbore: distance to triangle `[v0, e1, e2]` if hit in `[0, max)`.
+#[inline(always)]
+fn ray_triangle(o: PVector, d: PVector, tri: &[PVector; 3], max: f32) -> Option<f32> {
+    let [v0, e1, e2] = *tri;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None; // parallel to the triangle's plane
+    }
+    let inv = 1.0 / det;
+    let s = o - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t >= 0.0 && t < max).then_some(t)
 }
 
 /// Exact test of one triangle against a vertical cylinder (see [`MeshBvh::cylinder_intersects`]).
@@ -254,6 +306,38 @@ mod tests {
         let dir = Vector3::new(1.0, 0.5, 0.0).normalize();
         let d = bvh.cast(Point3::new(0.0, 0.0, 0.5), dir, 5.0).unwrap();
         assert!((d - 1.25f32.sqrt()).abs() < 1e-5, "{d}");
+    }
+
+    #[test]
+    fn cast_agrees_with_parrys_triangle_cast() {
+        use rand::{Rng, SeedableRng};
+        let bvh = MeshBvh::new(&super::testing::furnished_room(8.0)).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        let (mut hits, mut disagree) = (0, 0);
+        for _ in 0..20000 {
+            let o = Point3::new(
+                rng.random_range(0.1..7.9),
+                rng.random_range(0.1..7.9),
+                rng.random_range(0.1..2.4),
+            );
+            let d = Vector3::new(
+                rng.random_range(-1.0f32..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            match (bvh.cast(o, d, 5.0), bvh.cast_reference(o, d, 5.0)) {
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    assert!((a - b).abs() < 1e-4, "{a} vs {b} from {o:?} along {d:?}");
+                }
+                (None, None) => {}
+                // Rays grazing an edge may fall either side of it.
+                _ => disagree += 1,
+            }
+        }
+        assert!(hits > 10000, "{hits}");
+        assert!(disagree <= 2, "{disagree}");
     }
 
     #[test]
