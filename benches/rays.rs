@@ -1,0 +1,49 @@
+//! Ray casting and map integration throughput: rays per second on a synthetic furnished room.
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use nalgebra::Point2;
+use tensorscout::map::Map;
+use tensorscout::sensor::raycast::testing::furnished_room;
+use tensorscout::sensor::{DepthCamera, DepthFrame, MeshBvh};
+use tensorscout::{Config, GridSpec, Pose2};
+
+fn rays(c: &mut Criterion) {
+    let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+    for (w, h) in [(80usize, 60usize), (640, 480)] {
+        let mut cfg = Config::default();
+        cfg.camera.width = w;
+        cfg.camera.height = h;
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut frame = DepthFrame::default();
+        let mut g = c.benchmark_group(format!("rays_{w}x{h}"));
+        g.throughput(Throughput::Elements((w * h) as u64));
+        let mut k = 0u32;
+        g.bench_function("cast", |b| {
+            b.iter(|| {
+                k = k.wrapping_add(1);
+                let yaw = k as f64 * 0.37;
+                cam.capture_into(&bvh, Pose2::new(4.0, 4.0, yaw), &mut frame);
+            })
+        });
+        let grid = GridSpec::covering(
+            Point2::new(-0.5, -0.5),
+            Point2::new(8.5, 8.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let mut map = Map::new(grid, &cfg);
+        g.bench_function("cast_and_integrate", |b| {
+            b.iter(|| {
+                k = k.wrapping_add(1);
+                // Poses on a circle around the room centre, looking all ways: some frames see new space.
+                let a = k as f64 * 0.37;
+                let pose = Pose2::new(4.0 + 1.5 * a.cos(), 4.0 + 1.5 * (0.7 * a).sin(), a * 1.3);
+                cam.capture_into(&bvh, pose, &mut frame);
+                map.integrate(&frame).touched_columns
+            })
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, rays);
+criterion_main!(benches);

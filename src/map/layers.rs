@@ -1,0 +1,480 @@
+//! 2D layers derived from the voxels, kept up to date incrementally: column state, obstacle inflation,
+//! traversability, surface cells and frontier cells.
+
+use super::occupancy::{Occupancy, VoxelState};
+use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::Config;
+use nalgebra::Point2;
+use std::collections::VecDeque;
+use std::ops::Range;
+
+/// What the robot knows about one floor cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellState {
+    Unknown,
+    Free,
+    Obstacle,
+}
+
+/// A connected piece of frontier, short enough to be one goal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrontierSegment {
+    /// Member cells, ascending by flat index.
+    pub cells: Vec<Cell>,
+    /// Mean of the member cell centres.
+    pub centroid: Point2<f64>,
+    /// The member cell nearest the centroid (lowest index on ties): a reachable goal.
+    pub anchor: Cell,
+}
+
+/// The 2D layers.
+#[derive(Clone, Debug)]
+pub struct Layers {
+    grid: GridSpec,
+    /// Voxel layers that can block the robot: `[band_min_m, robot.height_m]`.
+    robot_band: Range<usize>,
+    /// Voxel layers whose occupied voxels are surfaces: `[band_min_m, band_max_m]`.
+    surface_band: Range<usize>,
+    /// Known voxels a column's robot band needs to count as free.
+    min_known: usize,
+    /// Cell offsets within the inflation radius (robot radius + margin) of a cell centre.
+    inflation_offsets: Vec<(i32, i32)>,
+    segment_max_m: f64,
+    segment_min_cells: usize,
+    state: Vec<CellState>,
+    /// Cells the robot has stood on: free in 2D unless an obstacle is seen there.
+    footprint: Vec<bool>,
+    surface: Vec<bool>,
+    /// Number of Obstacle cells within the inflation radius of each cell.
+    inflation: Vec<u32>,
+    traversable: Vec<bool>,
+    frontier: Vec<bool>,
+}
+
+impl Layers {
+    /// All-unknown layers over `grid`.
+    pub fn new(grid: GridSpec, cfg: &Config) -> Layers {
+        let m = &cfg.map;
+        let robot_band = grid.layers_in(m.band_min_m, cfg.robot.height_m);
+        let surface_band = grid.layers_in(m.band_min_m, m.band_max_m);
+        let min_known =
+            ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
+        let radius = cfg.robot.radius_m + m.inflation_margin_m;
+        let reach = (radius / grid.res).ceil() as i32;
+        let mut inflation_offsets = Vec::new();
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if ((dx * dx + dy * dy) as f64).sqrt() * grid.res <= radius {
+                    inflation_offsets.push((dx, dy));
+                }
+            }
+        }
+        let n = grid.cells();
+        Layers {
+            grid,
+            robot_band,
+            surface_band,
+            min_known,
+            inflation_offsets,
+            segment_max_m: m.frontier_segment_max_m,
+            segment_min_cells: m.frontier_min_cells,
+            state: vec![CellState::Unknown; n],
+            footprint: vec![false; n],
+            surface: vec![false; n],
+            inflation: vec![0; n],
+            traversable: vec![false; n],
+            frontier: vec![false; n],
+        }
+    }
+
+    pub fn states(&self) -> &[CellState] {
+        &self.state
+    }
+    pub fn traversable(&self) -> &[bool] {
+        &self.traversable
+    }
+    pub fn surface(&self) -> &[bool] {
+        &self.surface
+    }
+    pub fn frontier(&self) -> &[bool] {
+        &self.frontier
+    }
+
+    /// The state and surface flag of one column, from its voxels and the footprint flag.
+    fn column(&self, occ: &Occupancy, idx: usize) -> (CellState, bool) {
+        let cell = self.grid.cell(idx);
+        let mut known = 0;
+        let mut lowest_known = false;
+        let mut blocked = false;
+        for iz in self.robot_band.clone() {
+            let s = occ.state(self.grid.voxel_index(cell, iz));
+            if s != VoxelState::Unknown {
+                known += 1;
+                lowest_known |= iz == self.robot_band.start;
+            }
+            blocked |= s == VoxelState::Occupied;
+        }
+        let surface = self
+            .surface_band
+            .clone()
+            .any(|iz| occ.state(self.grid.voxel_index(cell, iz)) == VoxelState::Occupied);
+        let state = if blocked {
+            CellState::Obstacle
+        } else if (known >= self.min_known && lowest_known) || self.footprint[idx] {
+            CellState::Free
+        } else {
+            CellState::Unknown
+        };
+        (state, surface)
+    }
+
+    /// Recomputes the given columns (flat cell indices) and everything that depends on them.
+    pub fn update_columns(&mut self, occ: &Occupancy, columns: &[u32]) {
+        let mut changed = Vec::new();
+        for &c in columns {
+            let c = c as usize;
+            let (state, surface) = self.column(occ, c);
+            self.surface[c] = surface;
+            self.set_state(c, state, &mut changed);
+        }
+        self.settle(changed);
+    }
+
+    /// The robot stands at `(x, y)`: cells whose centre lies within `radius` and that are not Obstacle
+    /// become Free (a 2D fact only; no voxel becomes known).
+    pub fn clear_footprint(&mut self, x: f64, y: f64, radius: f64) {
+        let mut changed = Vec::new();
+        let lo = self.grid.cell_at(x - radius, y - radius);
+        let hi = self.grid.cell_at(x + radius, y + radius);
+        for cy in lo.y..=hi.y {
+            for cx in lo.x..=hi.x {
+                let Some(idx) = self.grid.checked_index(Cell::new(cx, cy)) else {
+                    continue;
+                };
+                let p = self.grid.center(Cell::new(cx, cy));
+                if (p - Point2::new(x, y)).norm() <= radius {
+                    self.footprint[idx] = true;
+                    if self.state[idx] == CellState::Unknown {
+                        self.set_state(idx, CellState::Free, &mut changed);
+                    }
+                }
+            }
+        }
+        self.settle(changed);
+    }
+
+    /// Sets a cell's state, updating inflation counters when its Obstacle status flips. Cells whose
+    /// traversability may have changed are pushed onto `changed`.
+    fn set_state(&mut self, idx: usize, new: CellState, changed: &mut Vec<usize>) {
+        let old = self.state[idx];
+        if old == new {
+            return;
+        }
+        self.state[idx] = new;
+        changed.push(idx);
+        let was = old == CellState::Obstacle;
+        let is = new == CellState::Obstacle;
+        if was == is {
+            return;
+        }
+        let cell = self.grid.cell(idx);
+        for &(dx, dy) in &self.inflation_offsets {
+            let Some(n) = self.grid.checked_index(Cell::new(cell.x + dx, cell.y + dy)) else {
+                continue;
+            };
+            if is {
+                self.inflation[n] += 1;
+                if self.inflation[n] == 1 {
+                    changed.push(n);
+                }
+            } else {
+                self.inflation[n] -= 1;
+                if self.inflation[n] == 0 {
+                    changed.push(n);
+                }
+            }
+        }
+    }
+
+    fn is_traversable_now(&self, idx: usize) -> bool {
+        self.state[idx] == CellState::Free && self.inflation[idx] == 0
+    }
+
+    fn is_frontier_now(&self, idx: usize) -> bool {
+        if !self.traversable[idx] {
+            return false;
+        }
+        let c = self.grid.cell(idx);
+        NEIGHBOURS_8[..4].iter().any(|&(dx, dy)| {
+            self.grid
+                .checked_index(Cell::new(c.x + dx, c.y + dy))
+                .is_some_and(|n| self.state[n] == CellState::Unknown)
+        })
+    }
+
+    /// Recomputes traversability of the `changed` cells, then the frontier flag of them and their
+    /// 4-neighbours (a frontier depends on its own traversability and its neighbours' states).
+    fn settle(&mut self, mut changed: Vec<usize>) {
+        changed.sort_unstable();
+        changed.dedup();
+        let mut frontier_dirty = Vec::with_capacity(changed.len() * 5);
+        for &idx in &changed {
+            self.traversable[idx] = self.is_traversable_now(idx);
+            frontier_dirty.push(idx);
+            let c = self.grid.cell(idx);
+            for &(dx, dy) in &NEIGHBOURS_8[..4] {
+                if let Some(n) = self.grid.checked_index(Cell::new(c.x + dx, c.y + dy)) {
+                    frontier_dirty.push(n);
+                }
+            }
+        }
+        for idx in frontier_dirty {
+            self.frontier[idx] = self.is_frontier_now(idx);
+        }
+    }
+
+    /// Recomputes every layer from the voxels and footprint flags, without the incremental machinery.
+    pub fn recompute_all(&mut self, occ: &Occupancy) {
+        let n = self.grid.cells();
+        for idx in 0..n {
+            let (state, surface) = self.column(occ, idx);
+            self.state[idx] = state;
+            self.surface[idx] = surface;
+        }
+        for idx in 0..n {
+            let c = self.grid.cell(idx);
+            self.inflation[idx] = self
+                .inflation_offsets
+                .iter()
+                .filter(|&&(dx, dy)| {
+                    self.grid
+                        .checked_index(Cell::new(c.x + dx, c.y + dy))
+                        .is_some_and(|o| self.state[o] == CellState::Obstacle)
+                })
+                .count() as u32;
+        }
+        for idx in 0..n {
+            self.traversable[idx] = self.is_traversable_now(idx);
+        }
+        for idx in 0..n {
+            self.frontier[idx] = self.is_frontier_now(idx);
+        }
+    }
+
+    /// Frontier cells clustered into 8-connected components, each split into pieces whose member cell
+    /// centres are at most `frontier_segment_max_m` apart, dropping pieces with fewer than
+    /// `frontier_min_cells` cells. Ordered by lowest cell index.
+    pub fn frontiers(&self) -> Vec<FrontierSegment> {
+        let g = &self.grid;
+        let n = g.cells();
+        // 0 = not yet collected; ASSIGNED = placed in a piece (or dropped with it); otherwise the
+        // component the cell waits in.
+        const ASSIGNED: u32 = u32::MAX;
+        let mut pending = vec![0u32; n];
+        let mut component_id = 0u32;
+        let mut segments = Vec::new();
+        let mut queue = VecDeque::new();
+        let max_cells2 = (self.segment_max_m / g.res).powi(2) * (1.0 + 1e-9);
+        for start in 0..n {
+            if !self.frontier[start] || pending[start] != 0 {
+                continue;
+            }
+            // Collect the component.
+            component_id += 1;
+            let mut component = vec![start];
+            pending[start] = component_id;
+            queue.push_back(start);
+            while let Some(i) = queue.pop_front() {
+                let c = g.cell(i);
+                for &(dx, dy) in &NEIGHBOURS_8 {
+                    if let Some(j) = g.checked_index(Cell::new(c.x + dx, c.y + dy)) {
+                        if self.frontier[j] && pending[j] == 0 {
+                            pending[j] = component_id;
+                            component.push(j);
+                            queue.push_back(j);
+                        }
+                    }
+                }
+            }
+            component.sort_unstable();
+            // Split it greedily: grow from the lowest pending cell, through pending cells, taking a
+            // cell only if it stays within the length limit of every member so far.
+            for &seed in &component {
+                if pending[seed] != component_id {
+                    continue;
+                }
+                pending[seed] = ASSIGNED;
+                let mut piece = vec![seed];
+                queue.push_back(seed);
+                while let Some(i) = queue.pop_front() {
+                    let c = g.cell(i);
+                    for &(dx, dy) in &NEIGHBOURS_8 {
+                        let nc = Cell::new(c.x + dx, c.y + dy);
+                        let Some(j) = g.checked_index(nc) else {
+                            continue;
+                        };
+                        if pending[j] != component_id {
+                            continue;
+                        }
+                        let fits = piece.iter().all(|&m| {
+                            let mc = g.cell(m);
+                            let (ex, ey) = ((mc.x - nc.x) as f64, (mc.y - nc.y) as f64);
+                            ex * ex + ey * ey <= max_cells2
+                        });
+                        if fits {
+                            pending[j] = ASSIGNED;
+                            piece.push(j);
+                            queue.push_back(j);
+                        }
+                    }
+                }
+                if piece.len() >= self.segment_min_cells {
+                    piece.sort_unstable();
+                    segments.push(self.segment(&piece));
+                }
+            }
+        }
+        segments.sort_by_key(|s: &FrontierSegment| g.index(s.cells[0]));
+        segments
+    }
+
+    fn segment(&self, piece: &[usize]) -> FrontierSegment {
+        let g = &self.grid;
+        let cells: Vec<Cell> = piece.iter().map(|&i| g.cell(i)).collect();
+        let sum = cells
+            .iter()
+            .fold(nalgebra::Vector2::zeros(), |s, &c| s + g.center(c).coords);
+        let centroid = Point2::from(sum / cells.len() as f64);
+        let mut anchor = cells[0];
+        let mut best = f64::INFINITY;
+        for &c in &cells {
+            let d = (g.center(c) - centroid).norm_squared();
+            if d < best {
+                best = d;
+                anchor = c;
+            }
+        }
+        FrontierSegment {
+            cells,
+            centroid,
+            anchor,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layers(nx: usize, ny: usize) -> Layers {
+        let grid = GridSpec {
+            origin_x: 0.0,
+            origin_y: 0.0,
+            res: 0.1,
+            nx,
+            ny,
+            nz: 18,
+        };
+        Layers::new(grid, &Config::default())
+    }
+
+    fn set(l: &mut Layers, x: i32, y: i32, s: CellState) {
+        let mut changed = Vec::new();
+        let idx = l.grid.index(Cell::new(x, y));
+        l.set_state(idx, s, &mut changed);
+        l.settle(changed);
+    }
+
+    #[test]
+    fn inflation_blocks_cells_within_robot_radius_plus_margin() {
+        let mut l = layers(21, 21);
+        for idx in 0..l.grid.cells() {
+            let c = l.grid.cell(idx);
+            set(&mut l, c.x, c.y, CellState::Free);
+        }
+        assert!(l.traversable.iter().all(|&t| t));
+        set(&mut l, 10, 10, CellState::Obstacle);
+        // Radius 0.25 + 0.08 = 0.33 m: 3 cells straight (0.3) and (2, 2) diagonal (0.283) are blocked;
+        // 4 cells straight (0.4) and (3, 1) (0.316) blocked, (3, 2) (0.361) free.
+        let t = |dx: i32, dy: i32| l.traversable[l.grid.index(Cell::new(10 + dx, 10 + dy))];
+        assert!(!t(0, 0) && !t(3, 0) && !t(0, -3) && !t(2, 2) && !t(3, 1));
+        assert!(t(4, 0) && t(3, 2) && t(-2, 3));
+        // Removing the obstacle frees everything again.
+        set(&mut l, 10, 10, CellState::Free);
+        assert!(l.traversable.iter().all(|&t| t));
+        assert!(l.inflation.iter().all(|&n| n == 0));
+    }
+
+    #[test]
+    fn frontier_cells_border_unknown() {
+        let mut l = layers(10, 10);
+        for x in 0..5 {
+            for y in 0..10 {
+                set(&mut l, x, y, CellState::Free);
+            }
+        }
+        for idx in 0..l.grid.cells() {
+            let c = l.grid.cell(idx);
+            assert_eq!(l.frontier[idx], c.x == 4, "{c:?}");
+        }
+        let segs = l.frontiers();
+        // A 10-cell line (0.9 m between end centres) fits one 1 m piece.
+        assert_eq!(segs.len(), 1);
+        assert_eq!(segs[0].cells.len(), 10);
+        // The centroid lies on the boundary between (4, 4) and (4, 5); rounding picks one.
+        assert!([Cell::new(4, 4), Cell::new(4, 5)].contains(&segs[0].anchor));
+        assert!((segs[0].centroid - Point2::new(0.45, 0.5)).norm() < 1e-9);
+    }
+
+    #[test]
+    fn clear_footprint_frees_unknown_but_not_obstacles() {
+        let mut l = layers(20, 20);
+        set(&mut l, 10, 10, CellState::Obstacle);
+        l.clear_footprint(1.0, 1.0, 0.25);
+        fn s_at(l: &Layers, x: i32, y: i32) -> CellState {
+            l.state[l.grid.index(Cell::new(x, y))]
+        }
+        assert_eq!(s_at(&l, 10, 10), CellState::Obstacle);
+        assert_eq!(s_at(&l, 9, 9), CellState::Free);
+        // Cell (11, 11) has its centre 0.212 m away; cell (12, 10) 0.255 m away.
+        assert_eq!(s_at(&l, 11, 11), CellState::Free);
+        assert_eq!(s_at(&l, 12, 10), CellState::Unknown);
+        // Footprint cells are traversable only outside the obstacle's inflation.
+        assert!(!l.traversable[l.grid.index(Cell::new(11, 11))]);
+        l.clear_footprint(0.45, 0.45, 0.1);
+        assert!(l.traversable[l.grid.index(Cell::new(4, 4))]);
+        l.clear_footprint(1.05, 1.2, 0.1);
+        assert_eq!(s_at(&l, 10, 12), CellState::Free);
+        assert!(!l.traversable[l.grid.index(Cell::new(10, 12))]);
+    }
+
+    #[test]
+    fn long_frontiers_split_into_pieces_within_the_length_limit() {
+        let mut l = layers(60, 30);
+        // Free rectangle x < 40, y 5..25 with an L-shaped frontier along x = 39 and y = 24.
+        for x in 0..40 {
+            for y in 5..25 {
+                set(&mut l, x, y, CellState::Free);
+            }
+        }
+        let segs = l.frontiers();
+        let total: usize = segs.iter().map(|s| s.cells.len()).sum();
+        let frontier_cells = l.frontier.iter().filter(|&&f| f).count();
+        assert!(segs.len() >= 6, "{}", segs.len());
+        assert!(total <= frontier_cells);
+        for s in &segs {
+            assert!(s.cells.len() >= 3);
+            assert!(s.cells.contains(&s.anchor));
+            for a in &s.cells {
+                for b in &s.cells {
+                    let d = (l.grid.center(*a) - l.grid.center(*b)).norm();
+                    assert!(d <= 1.0 + 1e-9, "piece longer than 1 m: {d}");
+                }
+            }
+        }
+        // Ordered by lowest cell and reproducible.
+        let firsts: Vec<usize> = segs.iter().map(|s| l.grid.index(s.cells[0])).collect();
+        assert!(firsts.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(segs, l.frontiers());
+    }
+}
