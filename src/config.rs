@@ -60,6 +60,7 @@ pub struct MapConfig {
     pub log_odds_occupied: f32,
     pub column_known_fraction: f64,
     pub inflation_margin_m: f64,
+    pub proximity_band_m: f64,
     pub frontier_segment_max_m: f64,
     pub frontier_min_cells: usize,
 }
@@ -99,12 +100,15 @@ pub struct MotionConfig {
 #[serde(deny_unknown_fields)]
 pub struct SearchConfig {
     pub unknown_is_free: bool,
+    pub near_unknown_radius_m: f64,
+    pub proximity_cost: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GreedyConfig {
     pub look_around_on_arrival: bool,
+    pub view_distance_m: f64,
 }
 
 impl Default for Config {
@@ -251,6 +255,13 @@ impl Config {
         positive("robot.height_m", self.robot.height_m)?;
         positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
         positive("robot.max_turn_rate_rps", self.robot.max_turn_rate_rps)?;
+        non_negative("greedy.view_distance_m", self.greedy.view_distance_m)?;
+        non_negative("map.proximity_band_m", self.map.proximity_band_m)?;
+        non_negative("search.proximity_cost", self.search.proximity_cost)?;
+        non_negative(
+            "search.near_unknown_radius_m",
+            self.search.near_unknown_radius_m,
+        )?;
         positive("motion.turn_in_place_rad", self.motion.turn_in_place_rad)?;
         positive("motion.lookahead_m", self.motion.lookahead_m)?;
         positive("motion.goal_tolerance_m", self.motion.goal_tolerance_m)?;

@@ -49,7 +49,14 @@ fn room_obj() -> String {
         ] {
             v.push(format!("v {x} {y} {z}"));
         }
-        for q in [[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]] {
+        for q in [
+            [0, 1, 2, 3],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [1, 2, 6, 5],
+            [2, 3, 7, 6],
+            [3, 0, 4, 7],
+        ] {
             f.push(format!(
                 "f {} {} {} {}",
                 base + q[0],
@@ -73,7 +80,9 @@ fn config_default_prints_every_section() {
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();
     let parsed: toml::Table = text.parse().unwrap();
-    for section in ["sim", "scene", "map", "camera", "robot", "motion", "search", "greedy"] {
+    for section in [
+        "sim", "scene", "map", "camera", "robot", "motion", "search", "greedy",
+    ] {
         assert!(parsed.contains_key(section), "missing [{section}]");
     }
 }
@@ -109,17 +118,33 @@ fn bad_flags_and_config_are_usage_errors() {
 fn bad_scenes_fail_with_one_line_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let empty = write(dir.path(), "empty.obj", "");
-    assert_fails(&run(&["scene", "info", empty.to_str().unwrap()]), 1, "empty.obj");
+    assert_fails(
+        &run(&["scene", "info", empty.to_str().unwrap()]),
+        1,
+        "empty.obj",
+    );
     let garbage = write(dir.path(), "garbage.ply", "\u{1}\u{2}this is not a mesh\n");
-    assert_fails(&run(&["scene", "info", garbage.to_str().unwrap()]), 1, "garbage.ply");
+    assert_fails(
+        &run(&["scene", "info", garbage.to_str().unwrap()]),
+        1,
+        "garbage.ply",
+    );
     let nan = write(
         dir.path(),
         "nan.obj",
         "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 2\nf 1 2 3\nf 1 2 4\n",
     );
-    assert_fails(&run(&["scene", "info", nan.to_str().unwrap()]), 1, "nan.obj");
+    assert_fails(
+        &run(&["scene", "info", nan.to_str().unwrap()]),
+        1,
+        "nan.obj",
+    );
     let missing = dir.path().join("missing.obj");
-    assert_fails(&run(&["scene", "info", missing.to_str().unwrap()]), 1, "missing.obj");
+    assert_fails(
+        &run(&["scene", "info", missing.to_str().unwrap()]),
+        1,
+        "missing.obj",
+    );
 }
 
 #[test]
@@ -128,8 +153,16 @@ fn bad_spawns_are_named() {
     let scene = write(dir.path(), "room.obj", &room_obj());
     let s = scene.to_str().unwrap();
     // Inside the wall at x = 0..0.1.
-    assert_fails(&run(&["explore", "--scene", s, "--spawn", "0.05,2"]), 2, "spawn");
-    assert_fails(&run(&["explore", "--scene", s, "--spawn", "40,2"]), 2, "spawn");
+    assert_fails(
+        &run(&["explore", "--scene", s, "--spawn", "0.05,2"]),
+        2,
+        "spawn",
+    );
+    assert_fails(
+        &run(&["explore", "--scene", s, "--spawn", "40,2"]),
+        2,
+        "spawn",
+    );
 }
 
 #[test]

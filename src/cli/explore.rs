@@ -73,8 +73,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     let output = if !args.quiet && std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(cfg.sim.budget_s as u64);
         bar.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] sim {pos}/{len} s {bar:30} {msg}")
-                .expect("valid template"),
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] sim {pos}/{len} s {bar:30} {msg}",
+            )
+            .expect("valid template"),
         );
         let mut progress = Progress { bar };
         let out = sim::run(&scene, world, &cfg, args.planner, &mut progress);

@@ -24,9 +24,11 @@ pub struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Explore one scene with one planner and report the metrics.
-    #[command(after_help = "Examples:\n  tensorscout explore --scene scenes/apartment_small.obj --planner greedy\n  \
+    #[command(
+        after_help = "Examples:\n  tensorscout explore --scene scenes/apartment_small.obj --planner greedy\n  \
 tensorscout explore --scene scenes/office_large.obj --planner greedy --seed 3 --json --png run.png\n  \
-tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2.0,1.57")]
+tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2.0,1.57"
+    )]
     Explore(explore::ExploreArgs),
     /// Generate, import, inspect or draw scenes.
     #[command(subcommand)]
@@ -123,7 +125,10 @@ mod tests {
     #[test]
     fn spawn_parsing() {
         assert_eq!(parse_spawn("1,2").unwrap(), Pose2::new(1.0, 2.0, 0.0));
-        assert_eq!(parse_spawn(" 1.5, -2 ,0.5").unwrap(), Pose2::new(1.5, -2.0, 0.5));
+        assert_eq!(
+            parse_spawn(" 1.5, -2 ,0.5").unwrap(),
+            Pose2::new(1.5, -2.0, 0.5)
+        );
         assert!(parse_spawn("1").is_err());
         assert!(parse_spawn("1,NaN").is_err());
         assert!(parse_spawn("1,2,3,4").is_err());

@@ -10,7 +10,9 @@ use tensorscout::{render, Pose2};
 #[derive(Subcommand)]
 pub enum SceneCommand {
     /// Generate a furnished indoor scene and write it as OBJ (the same seed gives the same scene).
-    #[command(after_help = "Example:\n  tensorscout scene generate --style office --seed 4 --area 300 -o office.obj")]
+    #[command(
+        after_help = "Example:\n  tensorscout scene generate --style office --seed 4 --area 300 -o office.obj"
+    )]
     Generate {
         /// Layout style: apartment, office, corridor or warehouse.
         #[arg(long, value_parser = parse_style)]
@@ -29,9 +31,11 @@ pub enum SceneCommand {
         force: bool,
     },
     /// Import a ROS map (`.yaml` + PGM) or a HouseExpo plan (`.json`) as an extruded OBJ mesh.
-    #[command(after_help = "Unknown cells of a ROS map are solid (the scene stays closed) unless \
+    #[command(
+        after_help = "Unknown cells of a ROS map are solid (the scene stays closed) unless \
 `--set scene.unknown_as_free=true`. Walls are `scene.wall_height_m` (2.5 m) high.\n\nExample:\n  \
-tensorscout scene import map.yaml -o house.obj")]
+tensorscout scene import map.yaml -o house.obj"
+    )]
     Import {
         /// ROS map `.yaml` or HouseExpo `.json`.
         input: PathBuf,
@@ -48,7 +52,9 @@ tensorscout scene import map.yaml -o house.obj")]
     #[command(after_help = "Example:\n  tensorscout scene info scenes/apartment_small.obj --json")]
     Info(InfoArgs),
     /// Draw a scene's ground truth (obstacles, explorable region, spawn) as PNG.
-    #[command(after_help = "Example:\n  tensorscout scene render scenes/apartment_small.obj -o apartment.png")]
+    #[command(
+        after_help = "Example:\n  tensorscout scene render scenes/apartment_small.obj -o apartment.png"
+    )]
     Render {
         #[command(flatten)]
         scene: SceneArgs,
@@ -168,7 +174,12 @@ fn print_info(i: &scene::ground_truth::SceneInfo) {
     println!("source         {}  hash {}", i.source, i.content_hash);
     println!(
         "bounds         x {:.2} .. {:.2}  y {:.2} .. {:.2}  z {:.2} .. {:.2} m",
-        i.bounds_min[0], i.bounds_max[0], i.bounds_min[1], i.bounds_max[1], i.bounds_min[2], i.bounds_max[2]
+        i.bounds_min[0],
+        i.bounds_max[0],
+        i.bounds_min[1],
+        i.bounds_max[1],
+        i.bounds_min[2],
+        i.bounds_max[2]
     );
     println!("triangles      {} ({} vertices)", i.triangles, i.vertices);
     println!("floor height   {:.3} m (moved to z = 0)", i.floor_z);
@@ -182,6 +193,10 @@ fn print_info(i: &scene::ground_truth::SceneInfo) {
         i.spawn.x,
         i.spawn.y,
         i.spawn.yaw,
-        if i.spawn_from_file { "" } else { " (automatic or given)" }
+        if i.spawn_from_file {
+            ""
+        } else {
+            " (automatic or given)"
+        }
     );
 }

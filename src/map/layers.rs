@@ -27,6 +27,20 @@ pub struct FrontierSegment {
     pub anchor: Cell,
 }
 
+/// Offsets of the cells whose centres lie within `radius` of a cell's centre.
+fn disc_offsets(grid: &GridSpec, radius: f64) -> Vec<(i32, i32)> {
+    let reach = (radius / grid.res).ceil() as i32;
+    let mut offsets = Vec::new();
+    for dy in -reach..=reach {
+        for dx in -reach..=reach {
+            if ((dx * dx + dy * dy) as f64).sqrt() * grid.res <= radius {
+                offsets.push((dx, dy));
+            }
+        }
+    }
+    offsets
+}
+
 /// The 2D layers.
 #[derive(Clone, Debug)]
 pub struct Layers {
@@ -39,6 +53,8 @@ pub struct Layers {
     min_known: usize,
     /// Cell offsets within the inflation radius (robot radius + margin) of a cell centre.
     inflation_offsets: Vec<(i32, i32)>,
+    /// Cell offsets within the proximity radius (inflation radius + `map.proximity_band_m`).
+    proximity_offsets: Vec<(i32, i32)>,
     segment_max_m: f64,
     segment_min_cells: usize,
     state: Vec<CellState>,
@@ -47,6 +63,8 @@ pub struct Layers {
     surface: Vec<bool>,
     /// Number of Obstacle cells within the inflation radius of each cell.
     inflation: Vec<u32>,
+    /// Number of Obstacle cells within the proximity radius of each cell.
+    proximity: Vec<u32>,
     traversable: Vec<bool>,
     frontier: Vec<bool>,
 }
@@ -60,15 +78,8 @@ impl Layers {
         let min_known =
             ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
         let radius = cfg.robot.radius_m + m.inflation_margin_m;
-        let reach = (radius / grid.res).ceil() as i32;
-        let mut inflation_offsets = Vec::new();
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                if ((dx * dx + dy * dy) as f64).sqrt() * grid.res <= radius {
-                    inflation_offsets.push((dx, dy));
-                }
-            }
-        }
+        let inflation_offsets = disc_offsets(&grid, radius);
+        let proximity_offsets = disc_offsets(&grid, radius + m.proximity_band_m);
         let n = grid.cells();
         Layers {
             grid,
@@ -76,12 +87,14 @@ impl Layers {
             surface_band,
             min_known,
             inflation_offsets,
+            proximity_offsets,
             segment_max_m: m.frontier_segment_max_m,
             segment_min_cells: m.frontier_min_cells,
             state: vec![CellState::Unknown; n],
             footprint: vec![false; n],
             surface: vec![false; n],
             inflation: vec![0; n],
+            proximity: vec![0; n],
             traversable: vec![false; n],
             frontier: vec![false; n],
         }
@@ -95,6 +108,15 @@ impl Layers {
     }
     pub fn surface(&self) -> &[bool] {
         &self.surface
+    }
+    /// Whether cell `idx` lies within the inflation radius of a known obstacle.
+    pub fn is_inflated(&self, idx: usize) -> bool {
+        self.inflation[idx] > 0
+    }
+    /// Whether cell `idx` lies within the proximity radius of a known obstacle (searches prefer
+    /// cells that are not, so that paths keep off walls where there is room).
+    pub fn is_near_obstacle(&self, idx: usize) -> bool {
+        self.proximity[idx] > 0
     }
     pub fn frontier(&self) -> &[bool] {
         &self.frontier
@@ -178,6 +200,15 @@ impl Layers {
             return;
         }
         let cell = self.grid.cell(idx);
+        for &(dx, dy) in &self.proximity_offsets {
+            if let Some(n) = self.grid.checked_index(Cell::new(cell.x + dx, cell.y + dy)) {
+                if is {
+                    self.proximity[n] += 1;
+                } else {
+                    self.proximity[n] -= 1;
+                }
+            }
+        }
         for &(dx, dy) in &self.inflation_offsets {
             let Some(n) = self.grid.checked_index(Cell::new(cell.x + dx, cell.y + dy)) else {
                 continue;
@@ -233,6 +264,19 @@ impl Layers {
         }
     }
 
+    /// Number of Obstacle cells at `offsets` from cell `idx`.
+    fn obstacles_within(&self, idx: usize, offsets: &[(i32, i32)]) -> u32 {
+        let c = self.grid.cell(idx);
+        offsets
+            .iter()
+            .filter(|&&(dx, dy)| {
+                self.grid
+                    .checked_index(Cell::new(c.x + dx, c.y + dy))
+                    .is_some_and(|o| self.state[o] == CellState::Obstacle)
+            })
+            .count() as u32
+    }
+
     /// Recomputes every layer from the voxels and footprint flags, without the incremental machinery.
     pub fn recompute_all(&mut self, occ: &Occupancy) {
         let n = self.grid.cells();
@@ -242,16 +286,8 @@ impl Layers {
             self.surface[idx] = surface;
         }
         for idx in 0..n {
-            let c = self.grid.cell(idx);
-            self.inflation[idx] = self
-                .inflation_offsets
-                .iter()
-                .filter(|&&(dx, dy)| {
-                    self.grid
-                        .checked_index(Cell::new(c.x + dx, c.y + dy))
-                        .is_some_and(|o| self.state[o] == CellState::Obstacle)
-                })
-                .count() as u32;
+            self.inflation[idx] = self.obstacles_within(idx, &self.inflation_offsets);
+            self.proximity[idx] = self.obstacles_within(idx, &self.proximity_offsets);
         }
         for idx in 0..n {
             self.traversable[idx] = self.is_traversable_now(idx);

@@ -82,6 +82,21 @@ impl Map {
         self.cell_state(idx) == CellState::Obstacle
     }
 
+    /// Within the inflation radius (robot radius + margin) of a known obstacle cell.
+    pub fn is_inflated(&self, idx: usize) -> bool {
+        self.layers.is_inflated(idx)
+    }
+
+    /// Within `map.proximity_band_m` of the inflation radius of a known obstacle.
+    pub fn is_near_obstacle(&self, idx: usize) -> bool {
+        self.layers.is_near_obstacle(idx)
+    }
+
+    /// Whether voxel `v` has been observed (free or occupied).
+    pub fn is_voxel_known(&self, v: usize) -> bool {
+        self.voxel_state(v) != VoxelState::Unknown
+    }
+
     pub fn is_unknown(&self, idx: usize) -> bool {
         self.cell_state(idx) == CellState::Unknown
     }
@@ -169,6 +184,10 @@ mod tests {
             assert_eq!(scratch.surface(), map.layers.surface());
             assert_eq!(scratch.traversable(), map.layers.traversable());
             assert_eq!(scratch.frontier(), map.layers.frontier());
+            for i in 0..grid.cells() {
+                assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
+                assert_eq!(scratch.is_near_obstacle(i), map.is_near_obstacle(i));
+            }
         }
         // The room got mapped: most of the wall at x = 0 is obstacle, most of the wall at x = 8 is
         // surface, and much of the floor is traversable.

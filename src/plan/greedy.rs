@@ -1,8 +1,10 @@
 //! GREEDY: nearest-frontier exploration (Yamauchi 1997), the classic baseline.
 //!
-//! The robot drives to the frontier segment nearest by path distance (one Dijkstra distance field
-//! from the robot), turns once in place on arrival to look into the unknown, and re-plans as soon as
-//! its target segment has been seen or its path is blocked. A segment that is still a frontier after
+//! The robot drives toward the frontier segment nearest by path cost (one Dijkstra field from the
+//! robot), stops `view_distance_m` short of it (a forward camera cannot see the floor right in front
+//! of it), turns once in place to look into the unknown, and re-plans as soon as its target segment
+//! has been seen or its path is blocked. Frontier cells within `search.near_unknown_radius_m` of the
+//! robot are skipped: they border the camera's blind zone and are seen once the robot moves on. A segment that is still a frontier after
 //! the robot arrived and looked, or that the robot failed to reach twice, is marked unobservable and
 //! skipped from then on. The run is complete when no reachable, observable frontier is left.
 
@@ -22,6 +24,8 @@ pub struct Greedy {
     path_cells: Vec<usize>,
     /// Frontier cells given up on.
     unobservable: Vec<bool>,
+    /// Frontier cells already looked at from `view_distance_m`: the next approach goes all the way.
+    approached: Vec<bool>,
     /// Failed attempts per target cell, keyed by the cell the robot aimed at.
     attempts: Vec<(usize, u32)>,
     aim: Option<usize>,
@@ -49,15 +53,17 @@ impl Planner for Greedy {
         let grid = *ctx.map.grid();
         if self.unobservable.len() != grid.cells() {
             self.unobservable = vec![false; grid.cells()];
+            self.approached = vec![false; grid.cells()];
         }
         let Some(start) = grid.cell_of(ctx.pose.position()).map(|c| grid.index(c)) else {
             return Ok(Action::Complete);
         };
         let map = ctx.map;
-        let unknown_is_free = ctx.cfg.search.unknown_is_free;
+        let (search_cfg, robot) = (&ctx.cfg.search, ctx.pose.position());
+        let near2 = search_cfg.near_unknown_radius_m.powi(2);
         let df = ctx.search.distance_field(
             &grid,
-            |i| super::passable(map, unknown_is_free, i),
+            |i| super::step_cost(map, search_cfg, robot, i),
             start,
             f32::INFINITY,
         );
@@ -67,15 +73,23 @@ impl Planner for Greedy {
         for (k, seg) in segments.iter().enumerate() {
             for c in &seg.cells {
                 let i = grid.index(*c);
-                if self.unobservable[i] {
+                if self.unobservable[i] || (grid.center(*c) - robot).norm_squared() <= near2 {
                     continue;
                 }
-                if let Some(d) = df.distance(i) {
+                if let Some(d) = df.cost_to(i) {
                     if best.is_none_or(|(bd, bi, _)| (d, i) < (bd, bi)) {
                         best = Some((d, i, k));
                     }
                 }
             }
+        }
+        if std::env::var("TS_DEBUG").is_ok() {
+            let reach = (0..grid.cells())
+                .filter(|&i| df.cost_to(i).is_some())
+                .count();
+            let fr = map.frontier_cells().iter().filter(|&&f| f).count();
+            let bl = self.unobservable.iter().filter(|&&f| f).count();
+            eprintln!("t={:.1} segs={} frontier_cells={} reachable={} blacklisted={} best={:?} start_trav={}", ctx.time_s, segments.len(), fr, reach, bl, best, map.is_traversable(start));
         }
         let Some((_, goal, k)) = best else {
             self.target.clear();
@@ -83,11 +97,29 @@ impl Planner for Greedy {
         };
         let path = df.path_to(&grid, goal).expect("reachable by construction");
         self.target = segments[k].cells.clone();
-        self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
+        // Stop `view_distance_m` short of the frontier (measured along the path).
+        let mut keep = path.cells.len();
+        let mut remaining = 0.0;
+        let view_distance_m = if self.approached[goal] {
+            0.0
+        } else {
+            ctx.cfg.greedy.view_distance_m
+        };
+        while keep > 1 && remaining < view_distance_m {
+            remaining +=
+                (grid.center(path.cells[keep - 1]) - grid.center(path.cells[keep - 2])).norm();
+            keep -= 1;
+        }
+        let cells = &path.cells[..keep];
+        self.path_cells = cells.iter().skip(1).map(|c| grid.index(*c)).collect();
         self.aim = Some(goal);
+        let look_on_arrival = ctx.cfg.greedy.look_around_on_arrival;
+        if cells.len() < 2 {
+            return Ok(Action::LookAround);
+        }
         Ok(Action::Follow {
-            path: path.cells.iter().map(|c| grid.center(*c)).collect(),
-            look_on_arrival: ctx.cfg.greedy.look_around_on_arrival,
+            path: cells.iter().map(|c| grid.center(*c)).collect(),
+            look_on_arrival,
         })
     }
 
@@ -117,8 +149,14 @@ impl Planner for Greedy {
             return;
         }
         if reached {
-            // Arrived and looked, yet the segment is still a frontier: nothing more can be seen here.
-            self.give_up_target(ctx);
+            if self.approached[aim] {
+                // Looked from the frontier itself and it is still one: nothing more can be seen.
+                self.give_up_target(ctx);
+            } else {
+                for c in &self.target {
+                    self.approached[grid.index(*c)] = true;
+                }
+            }
             return;
         }
         let entry = match self.attempts.iter_mut().find(|(c, _)| *c == aim) {

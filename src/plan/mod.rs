@@ -7,7 +7,7 @@
 pub mod greedy;
 pub mod search;
 
-use crate::config::Config;
+use crate::config::{Config, SearchConfig};
 use crate::map::Map;
 use crate::{Pose2, Result};
 use nalgebra::Point2;
@@ -23,16 +23,36 @@ pub struct PlanContext<'a> {
 }
 
 impl PlanContext<'_> {
-    /// Whether a cell may be entered by the robot under the search settings.
+    /// The search cost of entering a cell now (see [`step_cost`]).
+    pub fn step_cost(&self, cell: usize) -> Option<f32> {
+        step_cost(self.map, &self.cfg.search, self.pose.position(), cell)
+    }
+
+    /// Whether the robot may enter a cell now.
     pub fn passable(&self, cell: usize) -> bool {
-        passable(self.map, self.cfg.search.unknown_is_free, cell)
+        self.step_cost(cell).is_some()
     }
 }
 
-/// The passability rule every search uses: traversable, or unknown (and not within the inflation of
-/// a known obstacle) when searches are optimistic.
-pub fn passable(map: &Map, unknown_is_free: bool, cell: usize) -> bool {
-    map.is_traversable(cell) || (unknown_is_free && map.is_unknown(cell) && !map.is_inflated(cell))
+/// The cost rule every search uses (see [`search`]): a cell may be entered if it is traversable, or
+/// unknown and clear of every known obstacle's inflation when searches are optimistic or when it
+/// lies within `near_unknown_radius_m` of the robot (the camera's blind zone around its own wheels).
+/// Entering costs 1 per metre, plus `proximity_cost` near a known obstacle.
+pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize) -> Option<f32> {
+    let enterable = map.is_traversable(cell)
+        || (map.is_unknown(cell) && !map.is_inflated(cell) && {
+            let grid = map.grid();
+            cfg.unknown_is_free
+                || (grid.center(grid.cell(cell)) - robot).norm_squared()
+                    <= cfg.near_unknown_radius_m * cfg.near_unknown_radius_m
+        });
+    enterable.then(|| {
+        if map.is_near_obstacle(cell) {
+            1.0 + cfg.proximity_cost as f32
+        } else {
+            1.0
+        }
+    })
 }
 
 /// What the robot should do next.
@@ -66,7 +86,9 @@ pub trait Planner {
 }
 
 /// The planners a run can use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum, serde::Serialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum PlannerKind {
     /// Tensor-field-driven hierarchical planning (THP).

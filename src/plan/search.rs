@@ -1,6 +1,10 @@
 //! Grid search on the 2D traversable layer: A* (8-connected, octile heuristic) and a one-to-many
 //! Dijkstra distance field.
 //!
+//! Searches take a cost function: `None` for a cell that cannot be entered, `Some(m)` with `m ≥ 1`
+//! for the cost per metre of entering it (1 for plain shortest paths; more near obstacles). The octile
+//! heuristic stays admissible because no multiplier is below 1.
+//!
 //! Both work on flat arrays owned by a reusable [`Search`] workspace: a generation stamp marks which
 //! entries are valid for the current query, so no per-query clearing and no per-node allocation.
 //! Diagonal moves are allowed only when both orthogonal neighbours are passable, so paths never cut
@@ -57,25 +61,26 @@ pub struct Search {
     pub astar_calls: u64,
 }
 
-/// Distances in metres from one source to every cell, with parents for path extraction.
+/// Least costs from one source to every cell, with parents for path extraction.
 #[derive(Clone, Debug)]
 pub struct DistanceField {
     pub source: usize,
-    /// Path length from the source, metres; `f32::INFINITY` where unreachable.
-    pub dist: Vec<f32>,
+    /// Least path cost from the source (metres weighted by the cost multipliers);
+    /// `f32::INFINITY` where unreachable.
+    pub cost: Vec<f32>,
     parent: Vec<u32>,
 }
 
 impl DistanceField {
-    /// Distance to `cell` in metres, or `None` if unreachable.
-    pub fn distance(&self, cell: usize) -> Option<f32> {
-        let d = self.dist[cell];
+    /// Least cost to `cell`, or `None` if unreachable.
+    pub fn cost_to(&self, cell: usize) -> Option<f32> {
+        let d = self.cost[cell];
         d.is_finite().then_some(d)
     }
 
-    /// The path from the source to `target` (inclusive), or `None` if unreachable.
+    /// The least-cost path from the source to `target` (inclusive), or `None` if unreachable.
     pub fn path_to(&self, grid: &GridSpec, target: usize) -> Option<GridPath> {
-        let length = self.distance(target)?;
+        self.cost_to(target)?;
         let mut cells = vec![grid.cell(target)];
         let mut at = target;
         while at != self.source {
@@ -83,10 +88,25 @@ impl DistanceField {
             cells.push(grid.cell(at));
         }
         cells.reverse();
-        Some(GridPath {
-            cells,
-            length_m: length as f64,
-        })
+        Some(GridPath::new(grid, cells))
+    }
+}
+
+impl GridPath {
+    /// A path through `cells` (consecutive cells 8-adjacent), with its geometric length.
+    pub fn new(grid: &GridSpec, cells: Vec<Cell>) -> Self {
+        let length_m = cells
+            .windows(2)
+            .map(|w| {
+                let diagonal = w[0].x != w[1].x && w[0].y != w[1].y;
+                if diagonal {
+                    grid.res * std::f64::consts::SQRT_2
+                } else {
+                    grid.res
+                }
+            })
+            .sum();
+        GridPath { cells, length_m }
     }
 }
 
@@ -107,7 +127,11 @@ impl Search {
     }
 
     fn begin(&mut self, grid: &GridSpec) {
-        assert_eq!(grid.cells(), self.cells, "search workspace built for another grid");
+        assert_eq!(
+            grid.cells(),
+            self.cells,
+            "search workspace built for another grid"
+        );
         self.heap.clear();
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
@@ -130,7 +154,7 @@ impl Search {
     fn expand(
         &mut self,
         grid: &GridSpec,
-        passable: &impl Fn(usize) -> bool,
+        cost: &impl Fn(usize) -> Option<f32>,
         at: usize,
         mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
@@ -143,7 +167,8 @@ impl Search {
             let Some(ni) = grid.checked_index(n) else {
                 continue;
             };
-            let ok = passable(ni);
+            let multiplier = cost(ni);
+            let ok = multiplier.is_some();
             if k < 4 {
                 open4[k] = ok;
             } else {
@@ -154,10 +179,13 @@ impl Search {
                     continue;
                 }
             }
-            if !ok || self.closed[ni] == self.generation {
+            let Some(multiplier) = multiplier else {
+                continue;
+            };
+            if self.closed[ni] == self.generation {
                 continue;
             }
-            let step = if k < 4 { res } else { res * SQRT2 };
+            let step = multiplier * if k < 4 { res } else { res * SQRT2 };
             let g_new = g_at + step;
             if g_new < self.g_of(ni) {
                 self.stamp[ni] = self.generation;
@@ -168,18 +196,18 @@ impl Search {
         }
     }
 
-    /// Shortest 8-connected path from `start` to `goal` over cells where `passable` holds.
-    /// The start cell itself need not be passable (the robot may stand in an inflated band).
+    /// Least-cost 8-connected path from `start` to `goal` under `cost` (see the module doc).
+    /// The start cell itself need not be enterable (the robot may stand in an inflated band).
     pub fn astar(
         &mut self,
         grid: &GridSpec,
-        passable: impl Fn(usize) -> bool,
+        cost: impl Fn(usize) -> Option<f32>,
         start: usize,
         goal: usize,
     ) -> Option<GridPath> {
         self.begin(grid);
         self.astar_calls += 1;
-        if start != goal && !passable(goal) {
+        if start != goal && cost(goal).is_none() {
             return None;
         }
         let gc = grid.cell(goal);
@@ -206,7 +234,7 @@ impl Search {
             if at == goal {
                 return Some(self.extract(grid, start, goal));
             }
-            self.expand(grid, &passable, at, |heap, ni, g| {
+            self.expand(grid, &cost, at, |heap, ni, g| {
                 heap.push(Entry {
                     priority: g + heuristic(ni),
                     cell: ni as u32,
@@ -224,20 +252,17 @@ impl Search {
             cells.push(grid.cell(at));
         }
         cells.reverse();
-        GridPath {
-            cells,
-            length_m: self.g[goal] as f64,
-        }
+        GridPath::new(grid, cells)
     }
 
-    /// Dijkstra distance field from `source` over passable cells (the source need not be passable),
-    /// stopping once every remaining cell is farther than `max_dist_m`.
+    /// Dijkstra least-cost field from `source` under `cost` (the source need not be enterable),
+    /// stopping once every remaining cell costs more than `max_cost`.
     pub fn distance_field(
         &mut self,
         grid: &GridSpec,
-        passable: impl Fn(usize) -> bool,
+        cost: impl Fn(usize) -> Option<f32>,
         source: usize,
-        max_dist_m: f32,
+        max_cost: f32,
     ) -> DistanceField {
         self.begin(grid);
         self.stamp[source] = self.generation;
@@ -252,28 +277,28 @@ impl Search {
             if self.closed[at] == self.generation {
                 continue;
             }
-            if priority > max_dist_m {
+            if priority > max_cost {
                 break;
             }
             self.closed[at] = self.generation;
-            self.expand(grid, &passable, at, |heap, ni, g| {
+            self.expand(grid, &cost, at, |heap, ni, g| {
                 heap.push(Entry {
                     priority: g,
                     cell: ni as u32,
                 })
             });
         }
-        let mut dist = vec![f32::INFINITY; self.cells];
+        let mut cost = vec![f32::INFINITY; self.cells];
         let mut parent = vec![u32::MAX; self.cells];
         for i in 0..self.cells {
             if self.closed[i] == self.generation {
-                dist[i] = self.g[i];
+                cost[i] = self.g[i];
                 parent[i] = self.parent[i];
             }
         }
         DistanceField {
             source,
-            dist,
+            cost,
             parent,
         }
     }
@@ -301,7 +326,7 @@ mod tests {
         let mut s = Search::new(&g);
         let start = g.index(Cell::new(1, 2));
         let goal = g.index(Cell::new(11, 6));
-        let p = s.astar(&g, |_| true, start, goal).unwrap();
+        let p = s.astar(&g, |_| Some(1.0), start, goal).unwrap();
         let expected = 0.1 * (6.0 + 4.0 * 2f64.sqrt());
         assert!((p.length_m - expected).abs() < 1e-5);
         assert_eq!(p.cells.first(), Some(&Cell::new(1, 2)));
@@ -316,19 +341,25 @@ mod tests {
     fn wall_forces_detour_and_blocked_goal_fails() {
         let g = grid(10);
         // Wall at x = 5 for y in 0..9, open at y = 9.
-        let wall = |i: usize| {
+        let open = |i: usize| {
             let c = g.cell(i);
             !(c.x == 5 && c.y < 9)
         };
+        let wall = |i: usize| open(i).then_some(1.0);
         let mut s = Search::new(&g);
         let p = s
             .astar(&g, wall, g.index(Cell::new(2, 0)), g.index(Cell::new(8, 0)))
             .unwrap();
         assert!(p.cells.iter().any(|c| c.x == 5 && c.y == 9));
-        assert!(p.cells.iter().all(|c| wall(g.index(*c))));
-        let closed = |i: usize| g.cell(i).x != 5;
+        assert!(p.cells.iter().all(|c| open(g.index(*c))));
+        let closed = |i: usize| (g.cell(i).x != 5).then_some(1.0);
         assert!(s
-            .astar(&g, closed, g.index(Cell::new(2, 0)), g.index(Cell::new(8, 0)))
+            .astar(
+                &g,
+                closed,
+                g.index(Cell::new(2, 0)),
+                g.index(Cell::new(8, 0))
+            )
             .is_none());
     }
 
@@ -338,7 +369,7 @@ mod tests {
         // Block (1,0) and (0,1): the diagonal from (0,0) to (1,1) must not be taken.
         let open = |i: usize| {
             let c = g.cell(i);
-            !((c.x == 1 && c.y == 0) || (c.x == 0 && c.y == 1))
+            (!((c.x == 1 && c.y == 0) || (c.x == 0 && c.y == 1))).then_some(1.0)
         };
         let mut s = Search::new(&g);
         assert!(s
@@ -355,25 +386,38 @@ mod tests {
         let mut s = Search::new(&g);
         for _ in 0..20 {
             let blocked: Vec<bool> = (0..g.cells()).map(|_| rng.random::<f64>() < 0.25).collect();
-            let open = |i: usize| !blocked[i];
-            let src = (0..g.cells()).find(|&i| open(i)).unwrap();
-            let df = s.distance_field(&g, open, src, f32::INFINITY);
+            // Random costs: open cells cost 1–3 per metre.
+            let weight: Vec<f32> = (0..g.cells()).map(|_| rng.random_range(1.0..3.0)).collect();
+            let cost = |i: usize| (!blocked[i]).then_some(weight[i]);
+            let src = (0..g.cells()).find(|&i| !blocked[i]).unwrap();
+            let df = s.distance_field(&g, cost, src, f32::INFINITY);
             for _ in 0..10 {
                 let t = rng.random_range(0..g.cells());
-                let a = s.astar(&g, open, src, t);
-                match (a, df.distance(t)) {
+                let a = s.astar(&g, cost, src, t);
+                match (a, df.cost_to(t)) {
                     (Some(p), Some(d)) => {
-                        assert!((p.length_m - d as f64).abs() < 1e-4);
+                        // Both are least-cost paths: their costs agree (their cells may differ).
+                        let path_cost = |cells: &[Cell]| -> f64 {
+                            cells
+                                .windows(2)
+                                .map(|w| {
+                                    let diag = w[0].x != w[1].x && w[0].y != w[1].y;
+                                    let step = if diag { 0.1 * 2f64.sqrt() } else { 0.1 };
+                                    step * weight[g.index(w[1])] as f64
+                                })
+                                .sum()
+                        };
+                        assert!((path_cost(&p.cells) - d as f64).abs() < 1e-3);
                         let via = df.path_to(&g, t).unwrap();
-                        let mut len = 0.0;
-                        for w in via.cells.windows(2) {
-                            let diag = w[0].x != w[1].x && w[0].y != w[1].y;
-                            len += if diag { 0.1 * 2f64.sqrt() } else { 0.1 };
-                        }
-                        assert!((len - d as f64).abs() < 1e-4);
+                        assert!((path_cost(&via.cells) - d as f64).abs() < 1e-3);
+                        assert_eq!(GridPath::new(&g, via.cells.clone()).length_m, via.length_m);
                     }
                     (None, None) => {}
-                    (a, d) => panic!("A* {:?} vs Dijkstra {:?} for target {t}", a.map(|p| p.length_m), d),
+                    (a, d) => panic!(
+                        "A* {:?} vs Dijkstra {:?} for target {t}",
+                        a.map(|p| p.length_m),
+                        d
+                    ),
                 }
             }
         }
@@ -384,8 +428,8 @@ mod tests {
         let g = grid(40);
         let mut s = Search::new(&g);
         let src = g.index(Cell::new(0, 0));
-        let df = s.distance_field(&g, |_| true, src, 1.0);
-        assert!(df.distance(g.index(Cell::new(5, 0))).is_some());
-        assert!(df.distance(g.index(Cell::new(30, 0))).is_none());
+        let df = s.distance_field(&g, |_| Some(1.0), src, 1.0);
+        assert!(df.cost_to(g.index(Cell::new(5, 0))).is_some());
+        assert!(df.cost_to(g.index(Cell::new(30, 0))).is_none());
     }
 }

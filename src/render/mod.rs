@@ -37,7 +37,8 @@ impl Canvas {
     /// the picture under 1,600 px a side.
     pub fn new(grid: GridSpec, background: Rgb<u8>) -> Self {
         let scale = (MAX_SIDE_PX / grid.nx.max(grid.ny)).clamp(1, 8) as u32;
-        let image = RgbImage::from_pixel(grid.nx as u32 * scale, grid.ny as u32 * scale, background);
+        let image =
+            RgbImage::from_pixel(grid.nx as u32 * scale, grid.ny as u32 * scale, background);
         Canvas { image, grid, scale }
     }
 
@@ -71,7 +72,10 @@ impl Canvas {
 
     /// Sets one pixel if it lies inside the image.
     pub fn plot(&mut self, col: i64, row: i64, c: Rgb<u8>) {
-        if col >= 0 && row >= 0 && (col as u32) < self.image.width() && (row as u32) < self.image.height()
+        if col >= 0
+            && row >= 0
+            && (col as u32) < self.image.width()
+            && (row as u32) < self.image.height()
         {
             self.image.put_pixel(col as u32, row as u32, c);
         }

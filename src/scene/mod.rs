@@ -9,6 +9,7 @@ pub mod houseexpo;
 pub mod mesh;
 pub mod rosmap;
 
+pub use ground_truth::{info, GroundTruth};
 pub use mesh::TriMesh;
 
 use crate::config::SceneConfig;

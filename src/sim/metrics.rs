@@ -195,7 +195,10 @@ mod tests {
 
     #[test]
     fn termination_names() {
-        assert_eq!(serde_json::to_string(&Termination::Budget).unwrap(), "\"budget\"");
+        assert_eq!(
+            serde_json::to_string(&Termination::Budget).unwrap(),
+            "\"budget\""
+        );
         assert_eq!(Termination::Stuck.as_str(), "stuck");
     }
 }

@@ -50,6 +50,8 @@ pub struct MotionExecutor {
 
 /// Gain of the proportional heading controller, 1/s.
 const HEADING_GAIN: f64 = 2.0;
+/// Heading error under which the robot counts as facing its look-ahead point, radians.
+const ALIGNED_RAD: f64 = 0.1;
 /// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
 const MIN_SPEED_FRACTION: f64 = 0.3;
 
@@ -157,6 +159,11 @@ impl MotionExecutor {
                 let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
                 let limit = self.radius + 0.5 * map.grid().res;
                 if next_clearance < limit && next_clearance < clearance {
+                    // Moving on would bring the disc closer to a known obstacle than is safe. Turn in
+                    // place toward the path first; if already aligned, the way is blocked.
+                    if err.abs() > ALIGNED_RAD {
+                        return (Command { v: 0.0, w }, MotionStatus::Busy);
+                    }
                     self.phase = Phase::Idle;
                     return (Command::default(), MotionStatus::Blocked);
                 }

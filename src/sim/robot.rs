@@ -62,10 +62,7 @@ mod tests {
     use std::f64::consts::PI;
 
     fn robot() -> Robot {
-        Robot::new(
-            Pose2::new(0.0, 0.0, 0.0),
-            &crate::Config::default().robot,
-        )
+        Robot::new(Pose2::new(0.0, 0.0, 0.0), &crate::Config::default().robot)
     }
 
     #[test]

@@ -67,7 +67,10 @@ pub fn run(
     observer: &mut dyn Observer,
 ) -> Result<RunOutput> {
     let wall_start = Instant::now();
-    let World { ground_truth: gt, bvh } = world;
+    let World {
+        ground_truth: gt,
+        bvh,
+    } = world;
     let grid = gt.grid;
     let mut planner = planner.build(cfg)?;
     let mut map = Map::new(grid, cfg);
