@@ -20,6 +20,8 @@ pub const PATH: Rgb<u8> = Rgb([30, 90, 220]);
 pub const START: Rgb<u8> = Rgb([20, 170, 60]);
 pub const END: Rgb<u8> = Rgb([220, 40, 40]);
 pub const FRONTIER: Rgb<u8> = Rgb([250, 160, 20]);
+/// Free, but too close to a known obstacle for the robot's centre.
+pub const INFLATED: Rgb<u8> = Rgb([214, 226, 240]);
 
 /// Largest picture side, pixels; the cell scale is chosen to stay under it.
 const MAX_SIDE_PX: usize = 1600;
@@ -146,13 +148,14 @@ pub fn draw_ground_truth(gt: &GroundTruth) -> Canvas {
     canvas
 }
 
-/// A run's map: free, occupied and unknown cells, ground-truth walls faint where the map has not
-/// seen them, frontier cells, the driven path, the start and the end.
+/// A run's map: free (shaded where too close to an obstacle for the robot), occupied and unknown
+/// cells, ground-truth walls faint where the map has not seen them, frontier cells, the driven path, the start and the end.
 pub fn draw_run(map: &Map, gt: &GroundTruth, trajectory: &[Pose2]) -> Canvas {
     let mut canvas = Canvas::new(*map.grid(), UNKNOWN);
     canvas.paint_cells(|i| match map.cell_state(i) {
         CellState::Obstacle => Some(OCCUPIED),
         CellState::Free if map.is_frontier(i) => Some(FRONTIER),
+        CellState::Free if !map.is_traversable(i) => Some(INFLATED),
         CellState::Free => Some(FREE),
         CellState::Unknown if gt.obstacle_column(i) => Some(TRUTH_WALL),
         CellState::Unknown => None,

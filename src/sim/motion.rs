@@ -33,6 +33,11 @@ enum Phase {
     Looking {
         turned_rad: f64,
     },
+    /// Backing off from a known obstacle the robot got too close to: turn away from the nearest
+    /// obstacle cell and creep forward until the clearance is back, then report `Blocked`.
+    Escaping {
+        steps_left: u32,
+    },
 }
 
 /// Turns an [`Action`] into velocity commands, step by step.
@@ -46,12 +51,18 @@ pub struct MotionExecutor {
     lookahead: f64,
     goal_tolerance: f64,
     slow_clearance: f64,
+    /// Clearance (to obstacle cell centres) at which a cell is traversable again.
+    free_clearance: f64,
 }
 
 /// Gain of the proportional heading controller, 1/s.
 const HEADING_GAIN: f64 = 2.0;
 /// Heading error under which the robot counts as facing its look-ahead point, radians.
 const ALIGNED_RAD: f64 = 0.1;
+/// Most steps spent backing off from an obstacle before giving the planner the problem.
+const ESCAPE_STEPS: u32 = 40;
+/// Speed while backing off, as a fraction of the maximum.
+const ESCAPE_SPEED_FRACTION: f64 = 0.2;
 /// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
 const MIN_SPEED_FRACTION: f64 = 0.3;
 
@@ -67,6 +78,7 @@ impl MotionExecutor {
             lookahead: cfg.motion.lookahead_m,
             goal_tolerance: cfg.motion.goal_tolerance_m,
             slow_clearance: cfg.motion.slow_clearance_m,
+            free_clearance: cfg.robot.radius_m + cfg.map.inflation_margin_m,
         }
     }
 
@@ -160,12 +172,36 @@ impl MotionExecutor {
                 let limit = self.radius + 0.5 * map.grid().res;
                 if next_clearance < limit && next_clearance < clearance {
                     // Moving on would bring the disc closer to a known obstacle than is safe. Turn in
-                    // place toward the path first; if already aligned, the way is blocked.
+                    // place toward the path first; if already aligned, back off and re-plan.
                     if err.abs() > ALIGNED_RAD {
                         return (Command { v: 0.0, w }, MotionStatus::Busy);
                     }
+                    self.phase = Phase::Escaping {
+                        steps_left: ESCAPE_STEPS,
+                    };
+                    return self.step(pose, map);
+                }
+                (Command { v, w }, MotionStatus::Busy)
+            }
+            Phase::Escaping { steps_left } => {
+                let here = pose.position();
+                let clearance = obstacle_clearance(map, here, self.slow_clearance);
+                let away = nearest_obstacle(map, here, self.slow_clearance).map(|o| here - o);
+                *steps_left = steps_left.saturating_sub(1);
+                let done = clearance >= self.free_clearance || *steps_left == 0;
+                let Some(away) = away.filter(|_| !done) else {
                     self.phase = Phase::Idle;
                     return (Command::default(), MotionStatus::Blocked);
+                };
+                let err = wrap_angle(away.y.atan2(away.x) - pose.yaw);
+                let w = (HEADING_GAIN * err).clamp(-self.max_turn, self.max_turn);
+                if err.abs() > self.turn_in_place {
+                    return (Command { v: 0.0, w }, MotionStatus::Busy);
+                }
+                let v = ESCAPE_SPEED_FRACTION * self.max_speed;
+                let next = super::robot::integrate(pose, v, w, self.dt);
+                if obstacle_clearance(map, next.position(), self.slow_clearance) < clearance {
+                    return (Command { v: 0.0, w }, MotionStatus::Busy);
                 }
                 (Command { v, w }, MotionStatus::Busy)
             }
@@ -176,19 +212,30 @@ impl MotionExecutor {
 /// Distance from `p` to the nearest known obstacle cell centre, searched within `max_m`
 /// (returns `max_m` when none is nearer).
 pub fn obstacle_clearance(map: &Map, p: Point2<f64>, max_m: f64) -> f64 {
+    nearest_obstacle(map, p, max_m).map_or(max_m, |o| (o - p).norm())
+}
+
+/// Centre of the known obstacle cell nearest to `p` within `max_m` (ties: the first in row order).
+pub fn nearest_obstacle(map: &Map, p: Point2<f64>, max_m: f64) -> Option<Point2<f64>> {
     let grid = map.grid();
     let c = grid.cell_at(p.x, p.y);
     let r = (max_m / grid.res).ceil() as i32;
     let mut best = max_m * max_m;
+    let mut found = None;
     for dy in -r..=r {
         for dx in -r..=r {
             let n = Cell::new(c.x + dx, c.y + dy);
             if let Some(i) = grid.checked_index(n) {
                 if map.is_obstacle(i) {
-                    best = best.min((grid.center(n) - p).norm_squared());
+                    let o = grid.center(n);
+                    let d2 = (o - p).norm_squared();
+                    if d2 < best {
+                        best = d2;
+                        found = Some(o);
+                    }
                 }
             }
         }
     }
-    best.sqrt()
+    found
 }
