@@ -19,7 +19,7 @@ pub enum StopReason {
     /// Came within the stop radius of degenerate point number `.0` of the given list.
     NearDegenerate(usize),
     Border,
-    /// The field vanished (coherence below 1e-9): no direction to follow.
+    /// The field vanished exactly: no direction to follow.
     Degenerate,
 }
 
@@ -92,7 +92,7 @@ pub fn trace(
     let unit = |p: Point2<f64>, s: f64, along: Vector2<f64>| -> Option<Vector2<f64>> {
         let [a, b] = field(p, s)?;
         let mu = a.hypot(b);
-        if !(mu > 1e-12) {
+        if !(mu > 0.0 && mu.is_finite()) {
             return None;
         }
         let t = 0.5 * b.atan2(a);

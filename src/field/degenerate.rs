@@ -200,9 +200,11 @@ mod tests {
         let conj: Vec<[f64; 2]> = sq.iter().map(|v| [v[0], -v[1]]).collect();
         assert_eq!(winding(&conj), -1);
         // z² around the origin: +2.
-        let z2: Vec<[f64; 2]> = sq
-            .iter()
-            .map(|v| [v[0] * v[0] - v[1] * v[1], 2.0 * v[0] * v[1]])
+        let z2: Vec<[f64; 2]> = (0..8)
+            .map(|k| {
+                let (y, x) = (k as f64 * std::f64::consts::FRAC_PI_4).sin_cos();
+                [x * x - y * y, 2.0 * x * y]
+            })
             .collect();
         assert_eq!(winding(&z2), 2);
         // b ≡ 0 with a changing sign: a degenerate curve, no point.

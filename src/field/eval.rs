@@ -554,7 +554,7 @@ impl FieldLevel {
             for j in 0..xs.len() {
                 let cl = &col[j * n..(j + 1) * n];
                 let [a, b, w] = weighted_sums(cl, r, &ta, &tb, &st);
-                let scale = (-k.c * (dmin2[ci] - q0)).exp();
+                let scale = (k.c * (dmin2[ci] - q0)).exp();
                 values.push((cells[ci].0, [a * scale, b * scale], w * scale));
                 ci += 1;
             }
@@ -654,7 +654,10 @@ mod tests {
             assert!(d < 1e-6, "factor {factor}: {d}");
             for i in 0..r.ab.len() {
                 let (f, rr) = (lvl.grid.at_index(i), r.at_index(i));
-                assert!((f.weight - rr.weight).abs() <= 1e-9 * rr.weight.max(1.0));
+                assert!(
+                    (f.weight - rr.weight).abs() <= 1e-9 * rr.weight.max(1.0),
+                    "factor {factor} cell {i}: {f:?} vs {rr:?}"
+                );
             }
         }
     }

@@ -313,6 +313,11 @@ impl TensorField {
         self.main.recompute_all() + self.topo.as_mut().map_or(0, |l| l.recompute_all())
     }
 
+    /// Recomputes the planning field alone from scratch (compared with the reference in the bench).
+    pub fn recompute_planning_field(&mut self) -> usize {
+        self.main.recompute_all()
+    }
+
     /// A pathline of the planning field from `start`, leaving along the direction nearest `heading`,
     /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points.
     pub fn pathline(

@@ -152,14 +152,17 @@ pub fn build(
                 degenerate_radius_m: opts.arrive_radius_m,
                 origin: Some(i),
             };
-            let (line, end) = trace(
+            // Start one field cell out along the ray: at the point itself the direction is undefined.
+            let start = n.pos() + unit(phi) * field.spec.res;
+            let (mut line, end) = trace(
                 |p, _| field.sample(p).map(|s| [s.a, s.b]),
-                n.pos(),
+                start,
                 phi,
                 opts.max_length_m,
                 opts.step_m,
                 &stop,
             );
+            line.insert(0, n.pos());
             let mut polyline: Vec<[f64; 2]> = line.iter().map(|p| [p.x, p.y]).collect();
             let mut length_m = polyline_length(&polyline);
             if let StopReason::NearDegenerate(j) = end {
