@@ -43,76 +43,87 @@ fn bench(c: &mut Criterion) {
             .num_threads(threads)
             .build()
             .expect("thread pool");
-        pool.install(|| {
-            // A whole simulated run, timed per key frame (p50 printed, not asserted).
+        // A whole simulated run, timed per key frame (p50 printed, not asserted).
+        let (field, states) = pool.install(|| {
             let mut field = TensorField::new(grid, &cfg);
             let mut states = Vec::new();
             let mut times = Vec::new();
+            let mut topo_times = Vec::new();
             for s in &frames {
                 states.push(field.clone());
                 let inputs = MaskInputs::new(&grid, s, s, None).unwrap();
                 let t = std::time::Instant::now();
-                field.update(&inputs).unwrap();
+                field.update_field(&inputs).unwrap();
                 times.push(t.elapsed().as_secs_f64() * 1e3);
+                let t = std::time::Instant::now();
+                field.compute_topology();
+                topo_times.push(t.elapsed().as_secs_f64() * 1e3);
             }
-            let mut sorted = times.clone();
-            sorted.sort_by(f64::total_cmp);
-            eprintln!(
-                "threads {threads}: {} key frames, update p50 {:.2} ms, p95 {:.2} ms, max {:.2} ms; {} constraints",
-                times.len(),
-                sorted[sorted.len() / 2],
-                sorted[sorted.len() * 95 / 100],
-                sorted[sorted.len() - 1],
-                field.surface_constraint_count()
-            );
-            let mut g = c.benchmark_group(format!("field_t{threads}"));
-            g.sample_size(20);
-            let mut k = 0usize;
-            g.bench_function("incremental_keyframe", |b| {
-                b.iter_batched(
-                    || {
-                        k = (k + 1) % frames.len();
-                        (states[k].clone(), k)
-                    },
-                    |(mut f, k)| {
-                        let inputs = MaskInputs::new(&grid, &frames[k], &frames[k], None).unwrap();
-                        black_box(f.update(&inputs).unwrap())
-                    },
-                    BatchSize::LargeInput,
-                )
-            });
-            let mut full = field.clone();
-            g.bench_function("full_recompute_planning_field", |b| {
-                b.iter(|| black_box(full.recompute_planning_field()))
-            });
-            g.bench_function("degenerate_points_and_topology", |b| {
-                b.iter(|| {
-                    full.compute_topology();
-                    black_box(full.points().len())
-                })
-            });
-            let before = states[states.len() / 2].field().clone();
-            let params = SpaceTimeParams {
-                substeps: cfg.substeps,
-                omega_s: cfg.omega_s,
-                omega_t: cfg.omega_t,
-                alpha: cfg.alpha,
-                max_iterations: cfg.timevary_max_iterations,
-                tolerance: 1e-6,
+            let p = |v: &mut Vec<f64>, q: usize| {
+                v.sort_by(f64::total_cmp);
+                v[(v.len() * q / 100).min(v.len() - 1)]
             };
-            g.bench_function("timevary_window", |b| {
-                b.iter(|| {
-                    black_box(tensorscout::field::biharmonic_window(
-                        &before,
-                        field.field(),
-                        Point2::new(10.0, 10.0),
-                        cfg.timevary_radius_m,
-                        &params,
-                    ))
-                })
-            });
-            g.finish();
+            eprintln!(
+                "threads {threads}: {} key frames; field update p50 {:.2} ms, p95 {:.2} ms, max {:.2} ms; \
+                 topology p50 {:.2} ms, max {:.2} ms; {} constraints, {} points",
+                times.len(),
+                p(&mut times, 50),
+                p(&mut times, 95),
+                p(&mut times, 100),
+                p(&mut topo_times, 50),
+                p(&mut topo_times, 100),
+                field.surface_constraint_count(),
+                field.points().len()
+            );
+            (field, states)
         });
+        let mut g = c.benchmark_group(format!("field_t{threads}"));
+        g.sample_size(20);
+        let mut k = 0usize;
+        g.bench_function("incremental_keyframe", |b| {
+            b.iter_batched(
+                || {
+                    k = (k + 1) % frames.len();
+                    (states[k].clone(), k)
+                },
+                |(mut f, k)| {
+                    let inputs = MaskInputs::new(&grid, &frames[k], &frames[k], None).unwrap();
+                    pool.install(|| black_box(f.update_field(&inputs).unwrap()))
+                },
+                BatchSize::LargeInput,
+            )
+        });
+        let mut full = field.clone();
+        g.bench_function("full_recompute_planning_field", |b| {
+            b.iter(|| pool.install(|| black_box(full.recompute_planning_field())))
+        });
+        g.bench_function("degenerate_points_and_topology", |b| {
+            b.iter(|| {
+                pool.install(|| full.compute_topology());
+                black_box(full.points().len())
+            })
+        });
+        let before = states[states.len() / 2].field().clone();
+        let params = SpaceTimeParams {
+            substeps: cfg.substeps,
+            omega_s: cfg.omega_s,
+            omega_t: cfg.omega_t,
+            alpha: cfg.alpha,
+            max_iterations: cfg.timevary_max_iterations,
+            tolerance: 1e-6,
+        };
+        g.bench_function("timevary_window", |b| {
+            b.iter(|| {
+                black_box(tensorscout::field::biharmonic_window(
+                    &before,
+                    field.field(),
+                    Point2::new(10.0, 10.0),
+                    cfg.timevary_radius_m,
+                    &params,
+                ))
+            })
+        });
+        g.finish();
     }
     // The brute-force reference (single-threaded by construction), same run.
     let (field, _) =

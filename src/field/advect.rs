@@ -95,14 +95,22 @@ pub fn trace(
         if !(mu > 0.0 && mu.is_finite()) {
             return None;
         }
-        let t = 0.5 * b.atan2(a);
-        let e = Vector2::new(t.cos(), t.sin());
+        // Half-angle of (a, b)/μ without trigonometry.
+        let c2 = a / mu;
+        let e = Vector2::new(
+            ((1.0 + c2) / 2.0).max(0.0).sqrt(),
+            ((1.0 - c2) / 2.0).max(0.0).sqrt().copysign(b),
+        );
         Some(if e.dot(&along) < 0.0 { -e } else { e })
     };
     while s < max_len - 1e-12 {
         let step = h.min(max_len - s);
         let Some(k1) = unit(p, s, dir) else {
-            let r = if field(p, s).is_none() { StopReason::Border } else { StopReason::Degenerate };
+            let r = if field(p, s).is_none() {
+                StopReason::Border
+            } else {
+                StopReason::Degenerate
+            };
             return (line, r);
         };
         let k2 = unit(p + k1 * (step / 2.0), s + step / 2.0, k1);
@@ -208,7 +216,14 @@ mod tests {
         let (line, r) = pathline(&g, Point2::new(1.0, 2.5), 0.0, 10.0, 0.05, &stop);
         assert_eq!(r, StopReason::NearDegenerate(0));
         assert!((line.last().unwrap() - pts[0]).norm() < 0.3);
-        let (_, r) = pathline(&g, Point2::new(1.0, 2.5), std::f64::consts::PI, 10.0, 0.05, &stop);
+        let (_, r) = pathline(
+            &g,
+            Point2::new(1.0, 2.5),
+            std::f64::consts::PI,
+            10.0,
+            0.05,
+            &stop,
+        );
         assert_eq!(r, StopReason::Border);
     }
 }

@@ -288,7 +288,8 @@ impl SurfaceSampler {
     /// (an L of cells) get a diagonal tangent, straight axis-aligned walls exactly 0° or 90°.
     fn fit(&self, c: Cell) -> Option<Constraint> {
         let r = self.pca_radius_cells;
-        let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
+        let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) =
+            (0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
         for dy in -r..=r {
             for dx in -r..=r {
                 if dx * dx + dy * dy > r * r {
@@ -399,7 +400,11 @@ mod tests {
 
     #[test]
     fn path_constraints_follow_the_tangent() {
-        let path = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(1.0, 1.0)];
+        let path = [
+            Point2::new(0.0, 0.0),
+            Point2::new(1.0, 0.0),
+            Point2::new(1.0, 1.0),
+        ];
         let cs = path_constraints(&path, 0.2, 1.0);
         assert_eq!(cs.len(), 11);
         assert_eq!(cs[1].tensor, [1.0, 0.0]);

@@ -17,7 +17,12 @@ use nalgebra::{Point2, Vector2};
 
 /// Smooths `(a, b)` on the disc of radius `r` around `center` until it holds no degenerate point.
 /// Returns whether it succeeded (on failure the field is left unchanged).
-pub fn cancel_in_disc(field: &mut FieldGrid, center: Point2<f64>, r: f64, max_iterations: usize) -> bool {
+pub fn cancel_in_disc(
+    field: &mut FieldGrid,
+    center: Point2<f64>,
+    r: f64,
+    max_iterations: usize,
+) -> bool {
     let s = field.spec;
     let lo = s.cell_at(center.x - r, center.y - r);
     let hi = s.cell_at(center.x + r, center.y + r);

@@ -124,7 +124,10 @@ pub fn detect(field: &FieldGrid) -> Vec<RawPoint> {
 /// The zero of the bilinear interpolant of `v` (corners 00, 10, 11, 01) in the unit square.
 fn locate(v: [[f64; 2]; 4]) -> (f64, f64) {
     let f = |u: f64, t: f64, k: usize| {
-        v[0][k] * (1.0 - u) * (1.0 - t) + v[1][k] * u * (1.0 - t) + v[2][k] * u * t + v[3][k] * (1.0 - u) * t
+        v[0][k] * (1.0 - u) * (1.0 - t)
+            + v[1][k] * u * (1.0 - t)
+            + v[2][k] * u * t
+            + v[3][k] * (1.0 - u) * t
     };
     let (mut u, mut t) = (0.5, 0.5);
     for _ in 0..30 {
@@ -156,7 +159,11 @@ pub struct Tracker {
 }
 
 impl Tracker {
-    pub fn assign(&mut self, mut points: Vec<DegeneratePoint>, radius: f64) -> Vec<DegeneratePoint> {
+    pub fn assign(
+        &mut self,
+        mut points: Vec<DegeneratePoint>,
+        radius: f64,
+    ) -> Vec<DegeneratePoint> {
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for (i, p) in points.iter().enumerate() {
             for (j, q) in self.last.iter().enumerate() {
@@ -208,8 +215,14 @@ mod tests {
             .collect();
         assert_eq!(winding(&z2), 2);
         // b ≡ 0 with a changing sign: a degenerate curve, no point.
-        assert_eq!(winding(&[[1.0, 0.0], [-1.0, 0.0], [-1.0, 0.0], [1.0, 0.0]]), 0);
-        assert_eq!(winding(&[[1.0, -0.0], [-2.0, 0.0], [-1.0, -0.0], [3.0, 0.0]]), 0);
+        assert_eq!(
+            winding(&[[1.0, 0.0], [-1.0, 0.0], [-1.0, 0.0], [1.0, 0.0]]),
+            0
+        );
+        assert_eq!(
+            winding(&[[1.0, -0.0], [-2.0, 0.0], [-1.0, -0.0], [3.0, 0.0]]),
+            0
+        );
     }
 
     #[test]
@@ -239,7 +252,10 @@ mod tests {
             clearance_m: 1.0,
         };
         let mut t = Tracker::default();
-        let a = t.assign(vec![p(0.0, DegenerateKind::Wedge), p(5.0, DegenerateKind::Wedge)], 0.5);
+        let a = t.assign(
+            vec![p(0.0, DegenerateKind::Wedge), p(5.0, DegenerateKind::Wedge)],
+            0.5,
+        );
         assert_eq!((a[0].id, a[1].id), (0, 1));
         let b = t.assign(
             vec![

@@ -68,9 +68,19 @@ pub fn draw_field(img: &mut RgbImage, field: &TensorField, scale: u32, glyph_eve
     }
 }
 
-fn polyline(img: &mut RgbImage, pts: &[[f64; 2]], to_px: &dyn Fn(Point2<f64>) -> (f64, f64), c: Rgb<u8>) {
+fn polyline(
+    img: &mut RgbImage,
+    pts: &[[f64; 2]],
+    to_px: &dyn Fn(Point2<f64>) -> (f64, f64),
+    c: Rgb<u8>,
+) {
     for w in pts.windows(2) {
-        line(img, to_px(Point2::new(w[0][0], w[0][1])), to_px(Point2::new(w[1][0], w[1][1])), c);
+        line(
+            img,
+            to_px(Point2::new(w[0][0], w[0][1])),
+            to_px(Point2::new(w[1][0], w[1][1])),
+            c,
+        );
     }
 }
 

@@ -150,7 +150,10 @@ impl FieldGrid {
         let i01 = i00 + s.nx;
         let i11 = i01 + 1;
         let mix = |f: &dyn Fn(usize) -> f64| {
-            f(i00) * (1.0 - u) * (1.0 - v) + f(i10) * u * (1.0 - v) + f(i01) * (1.0 - u) * v + f(i11) * u * v
+            f(i00) * (1.0 - u) * (1.0 - v)
+                + f(i10) * u * (1.0 - v)
+                + f(i01) * (1.0 - u) * v
+                + f(i11) * u * v
         };
         Some(TensorSample {
             a: mix(&|i| self.ab[i][0]),
@@ -392,7 +395,10 @@ impl FieldLevel {
             ((tx * TILE + TILE).min(s.nx) - 1) as i32,
             ((ty * TILE + TILE).min(s.ny) - 1) as i32,
         ));
-        (Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y)), 0.5 * (b - a).norm())
+        (
+            Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y)),
+            0.5 * (b - a).norm(),
+        )
     }
 
     fn mark(&mut self, p: Point2<f64>) {
@@ -597,7 +603,11 @@ fn weighted_sums(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -
 
 /// Largest orientation difference (radians, of the major eigenvector) between two grids over cells
 /// where `reference` has coherence at least `min_coherence`.
-pub fn max_orientation_difference(fast: &FieldGrid, reference: &FieldGrid, min_coherence: f64) -> f64 {
+pub fn max_orientation_difference(
+    fast: &FieldGrid,
+    reference: &FieldGrid,
+    min_coherence: f64,
+) -> f64 {
     let mut worst: f64 = 0.0;
     for i in 0..reference.ab.len() {
         let r = reference.at_index(i);

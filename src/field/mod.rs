@@ -165,20 +165,33 @@ pub struct TensorField {
 
 impl TensorField {
     pub fn new(grid: GridSpec, cfg: &FieldConfig) -> Self {
-        let main = FieldLevel::new(grid, 1, Kernel::new(cfg.sigma_m, cfg.decay, cfg.weight_cutoff));
+        let main = FieldLevel::new(
+            grid,
+            1,
+            Kernel::new(cfg.sigma_m, cfg.decay, cfg.weight_cutoff),
+        );
         let separate_topology = cfg.topology_sigma_factor != 1.0 || cfg.topology_cell_factor != 1;
         let topo = separate_topology.then(|| {
             FieldLevel::new(
                 grid,
                 cfg.topology_cell_factor,
-                Kernel::new(cfg.sigma_m * cfg.topology_sigma_factor, cfg.decay, cfg.weight_cutoff),
+                Kernel::new(
+                    cfg.sigma_m * cfg.topology_sigma_factor,
+                    cfg.decay,
+                    cfg.weight_cutoff,
+                ),
             )
         });
         let topo_field = topo.as_ref().unwrap_or(&main).grid.clone();
         TensorField {
             cfg: cfg.clone(),
             grid,
-            sampler: SurfaceSampler::new(grid, cfg.d_s_m, cfg.tangent_radius_m, cfg.min_tangent_anisotropy),
+            sampler: SurfaceSampler::new(
+                grid,
+                cfg.d_s_m,
+                cfg.tangent_radius_m,
+                cfg.min_tangent_anisotropy,
+            ),
             main,
             topo,
             sample_ids: Vec::new(),
@@ -250,6 +263,15 @@ impl TensorField {
     /// One key frame: samples the new surface, updates both fields incrementally, recomputes the
     /// degenerate points (tracked ids) and the topology graph.
     pub fn update(&mut self, inputs: &impl FieldInputs) -> Result<UpdateStats> {
+        let mut stats = self.update_field(inputs)?;
+        let t = Instant::now();
+        self.compute_topology();
+        stats.topology_ms = ms(t);
+        Ok(stats)
+    }
+
+    /// The field part of a key frame (sampling and both fields, incrementally), without topology.
+    pub fn update_field(&mut self, inputs: &impl FieldInputs) -> Result<UpdateStats> {
         if inputs.grid() != &self.grid {
             return Err(Error::Runtime(
                 "field inputs use a different grid than the field".into(),
@@ -289,9 +311,6 @@ impl TensorField {
         let t1 = Instant::now();
         stats.cells_evaluated = self.main.refresh() + self.topo.as_mut().map_or(0, |l| l.refresh());
         stats.field_ms = ms(t1);
-        let t2 = Instant::now();
-        self.compute_topology();
-        stats.topology_ms = ms(t2);
         Ok(stats)
     }
 
@@ -336,7 +355,14 @@ impl TensorField {
             degenerate_radius_m: self.cfg.arrive_radius_m,
             origin: None,
         };
-        pathline(self.field(), start, heading, max_len, self.cfg.rk4_step_m, &stop)
+        pathline(
+            self.field(),
+            start,
+            heading,
+            max_len,
+            self.cfg.rk4_step_m,
+            &stop,
+        )
     }
 
     /// Degenerate points (tracked), separatrices and graph, with topological control if enabled.
@@ -350,16 +376,36 @@ impl TensorField {
             arrive_radius_m: self.cfg.arrive_radius_m,
             stop_at_unknown: self.cfg.stop_at_unknown,
         };
-        let nodes = self.find_points(&self.topo_field);
-        let mut graph = topology::build(&self.topo_field, nodes, &self.grid, &self.obstacle, &self.unknown, &opts);
+        let mut nodes = self.find_points(&self.topo_field);
         self.control = ControlCounts::default();
-        if self.cfg.cancel_pairs || self.cfg.move_trisectors_from_obstacles || self.cfg.move_wedges_into_corners {
+        // Moves need no graph: apply them first, so the graph is built once in the default setting.
+        if self.cfg.move_trisectors_from_obstacles || self.cfg.move_wedges_into_corners {
             let mut edited = self.topo_field.clone();
-            self.control = self.apply_control(&mut edited, &graph);
+            self.move_points(&mut edited, &nodes);
             if self.control != ControlCounts::default() {
                 self.topo_field = edited;
-                let nodes = self.find_points(&self.topo_field);
-                graph = topology::build(&self.topo_field, nodes, &self.grid, &self.obstacle, &self.unknown, &opts);
+                nodes = self.find_points(&self.topo_field);
+            }
+        }
+        let build = |field: &FieldGrid, nodes| {
+            topology::build(
+                field,
+                nodes,
+                &self.grid,
+                &self.obstacle,
+                &self.unknown,
+                &opts,
+            )
+        };
+        let mut graph = build(&self.topo_field, nodes);
+        if self.cfg.cancel_pairs {
+            let mut edited = self.topo_field.clone();
+            let cancelled = self.cancel_pairs(&mut edited, &graph);
+            if cancelled > 0 {
+                self.control.cancelled_pairs = cancelled;
+                let nodes = self.find_points(&edited);
+                graph = build(&edited, nodes);
+                self.topo_field = edited;
             }
         }
         graph.nodes = self.tracker.assign(graph.nodes, self.cfg.track_radius_m);
@@ -373,61 +419,69 @@ impl TensorField {
             .filter_map(|r| {
                 let kind = DegenerateKind::of_winding(r.winding)?;
                 let clearance_m = self.clearance_at(r.pos);
-                (clearance_m >= self.cfg.min_clearance_m && clearance_m > 0.0).then_some(DegeneratePoint {
-                    id: 0,
-                    x: r.pos.x,
-                    y: r.pos.y,
-                    kind,
-                    winding: r.winding,
-                    clearance_m,
-                })
+                (clearance_m >= self.cfg.min_clearance_m && clearance_m > 0.0).then_some(
+                    DegeneratePoint {
+                        id: 0,
+                        x: r.pos.x,
+                        y: r.pos.y,
+                        kind,
+                        winding: r.winding,
+                        clearance_m,
+                    },
+                )
             })
             .collect()
     }
 
-    fn apply_control(&self, edited: &mut FieldGrid, graph: &TopologyGraph) -> ControlCounts {
-        let mut counts = ControlCounts::default();
+    /// TENSOR Eq. 6 cancellations on `edited`; returns how many pairs were cancelled.
+    fn cancel_pairs(&self, edited: &mut FieldGrid, graph: &TopologyGraph) -> usize {
         let nodes = &graph.nodes;
         let mut used = vec![false; nodes.len()];
-        if self.cfg.cancel_pairs {
-            let mut pairs = Vec::new();
-            for (w, nw) in nodes.iter().enumerate() {
-                if nw.kind != DegenerateKind::Wedge {
-                    continue;
-                }
-                let dist = graph.distances_from(w);
-                for (t, nt) in nodes.iter().enumerate() {
-                    if nt.kind == DegenerateKind::Trisector && dist[t] < nw.clearance_m + nt.clearance_m {
-                        pairs.push((dist[t], w, t));
-                    }
-                }
+        let mut pairs = Vec::new();
+        for (w, nw) in nodes.iter().enumerate() {
+            if nw.kind != DegenerateKind::Wedge {
+                continue;
             }
-            pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
-            for (_, w, t) in pairs {
-                if used[w] || used[t] {
-                    continue;
-                }
-                let (pw, pt) = (nodes[w].pos(), nodes[t].pos());
-                let mid = Point2::new(0.5 * (pw.x + pt.x), 0.5 * (pw.y + pt.y));
-                let r = 0.5 * (pw - pt).norm() + 2.0 * edited.spec.res;
-                if control::cancel_in_disc(edited, mid, r, self.cfg.cancel_max_iterations) {
-                    used[w] = true;
-                    used[t] = true;
-                    counts.cancelled_pairs += 1;
+            let dist = graph.distances_from(w);
+            for (t, nt) in nodes.iter().enumerate() {
+                if nt.kind == DegenerateKind::Trisector && dist[t] < nw.clearance_m + nt.clearance_m
+                {
+                    pairs.push((dist[t], w, t));
                 }
             }
         }
-        for (i, n) in nodes.iter().enumerate() {
-            if used[i] {
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+        let mut cancelled = 0;
+        for (_, w, t) in pairs {
+            if used[w] || used[t] {
                 continue;
             }
+            let (pw, pt) = (nodes[w].pos(), nodes[t].pos());
+            let mid = Point2::new(0.5 * (pw.x + pt.x), 0.5 * (pw.y + pt.y));
+            let r = 0.5 * (pw - pt).norm() + 2.0 * edited.spec.res;
+            if control::cancel_in_disc(edited, mid, r, self.cfg.cancel_max_iterations) {
+                used[w] = true;
+                used[t] = true;
+                cancelled += 1;
+            }
+        }
+        cancelled
+    }
+
+    /// Moves trisectors out from obstacles and sharp wedges into their corners, on `edited`.
+    fn move_points(&mut self, edited: &mut FieldGrid, nodes: &[DegeneratePoint]) {
+        for n in nodes {
             let target = match n.kind {
                 DegenerateKind::Trisector
-                    if self.cfg.move_trisectors_from_obstacles && n.clearance_m < self.cfg.trisector_clearance_m =>
+                    if self.cfg.move_trisectors_from_obstacles
+                        && n.clearance_m < self.cfg.trisector_clearance_m =>
                 {
                     self.climb(n.pos(), |c| c >= self.cfg.trisector_clearance_m, 1.0)
                 }
-                DegenerateKind::Wedge if self.cfg.move_wedges_into_corners && sharp_wedge(graph, i) => {
+                DegenerateKind::Wedge
+                    if self.cfg.move_wedges_into_corners
+                        && sharp(&topology::separatrix_directions(edited, n.pos())) =>
+                {
                     self.climb(n.pos(), |c| c < 0.5 * self.cfg.min_clearance_m, -1.0)
                 }
                 _ => None,
@@ -435,13 +489,12 @@ impl TensorField {
             if let Some(to) = target {
                 control::move_point(edited, n.pos(), to);
                 if n.kind == DegenerateKind::Trisector {
-                    counts.moved_trisectors += 1;
+                    self.control.moved_trisectors += 1;
                 } else {
-                    counts.moved_wedges += 1;
+                    self.control.moved_wedges += 1;
                 }
             }
         }
-        counts
     }
 
     /// Walks from `p` up (`sign` = 1) or down (−1) the clearance until `done`, within `max_move_m`.
@@ -457,8 +510,13 @@ impl TensorField {
             }
             let next = NEIGHBOURS_8
                 .iter()
-                .filter_map(|&(dx, dy)| g.checked_index(Cell::new(c.x + dx, c.y + dy)).map(|i| (i, dx, dy)))
-                .max_by(|a, b| (sign * self.clearance[a.0]).total_cmp(&(sign * self.clearance[b.0])))?;
+                .filter_map(|&(dx, dy)| {
+                    g.checked_index(Cell::new(c.x + dx, c.y + dy))
+                        .map(|i| (i, dx, dy))
+                })
+                .max_by(|a, b| {
+                    (sign * self.clearance[a.0]).total_cmp(&(sign * self.clearance[b.0]))
+                })?;
             if sign * self.clearance[next.0] <= sign * here {
                 return None;
             }
@@ -468,13 +526,12 @@ impl TensorField {
     }
 }
 
-/// Whether two separatrices of wedge `i` leave less than 90° apart (a wedge made by a sharp corner).
-fn sharp_wedge(graph: &TopologyGraph, i: usize) -> bool {
-    let mut dirs: Vec<f64> = graph
-        .separatrices
+/// Whether two of the separatrix directions `dirs` (radians) are under 90° apart (a wedge made by a
+/// sharp corner).
+fn sharp(dirs: &[f64]) -> bool {
+    let mut dirs: Vec<f64> = dirs
         .iter()
-        .filter(|s| s.from == i)
-        .map(|s| s.direction.rem_euclid(std::f64::consts::TAU))
+        .map(|d| d.rem_euclid(std::f64::consts::TAU))
         .collect();
     if dirs.len() < 2 {
         return false;
@@ -522,7 +579,13 @@ pub fn chamfer_distance(grid: &GridSpec, mask: &[bool]) -> Vec<f64> {
         }
     }
     d.into_iter()
-        .map(|v| if v >= big { f64::INFINITY } else { v as f64 / 3.0 * grid.res })
+        .map(|v| {
+            if v >= big {
+                f64::INFINITY
+            } else {
+                v as f64 / 3.0 * grid.res
+            }
+        })
         .collect()
 }
 
@@ -627,7 +690,11 @@ pub fn max_orientation_difference_vs_reference(field: &mut TensorField) -> Refer
     field.main.recompute_all();
     let fast_full_ms = ms(t);
     ReferenceComparison {
-        max_orientation_difference_rad: eval::max_orientation_difference(field.field(), &reference, 1e-4),
+        max_orientation_difference_rad: eval::max_orientation_difference(
+            field.field(),
+            &reference,
+            1e-4,
+        ),
         reference_ms,
         fast_full_ms,
         speed_ratio: reference_ms / fast_full_ms.max(1e-9),

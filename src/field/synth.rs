@@ -29,7 +29,14 @@ pub fn wall(x0: f64, y0: f64, x1: f64, y1: f64, t: f64) -> Rect {
 
 /// Rasterises rectangles, rotated by `angle` about `pivot` (0 for none), onto a grid covering
 /// `[lo, hi]` at `res`.
-pub fn rasterise(rects: &[Rect], lo: Point2<f64>, hi: Point2<f64>, res: f64, angle: f64, pivot: Point2<f64>) -> Layout {
+pub fn rasterise(
+    rects: &[Rect],
+    lo: Point2<f64>,
+    hi: Point2<f64>,
+    res: f64,
+    angle: f64,
+    pivot: Point2<f64>,
+) -> Layout {
     let grid = GridSpec::covering(lo, hi, 2.0, res);
     let inv = Rotation2::new(-angle);
     let surface = (0..grid.cells())
@@ -80,7 +87,12 @@ pub fn office_rects() -> Vec<Rect> {
     r.push(wall(14.0, 0.0, 14.0, 9.0, t));
     r.push(wall(16.0, 0.0, 16.0, 9.0, t));
     // Furniture.
-    for (x, y, w, h) in [(2.0, 3.0, 1.2, 0.6), (6.5, 5.0, 0.8, 0.8), (12.0, 15.0, 1.0, 1.6), (17.5, 4.0, 0.8, 1.2)] {
+    for (x, y, w, h) in [
+        (2.0, 3.0, 1.2, 0.6),
+        (6.5, 5.0, 0.8, 0.8),
+        (12.0, 15.0, 1.0, 1.6),
+        (17.5, 4.0, 0.8, 1.2),
+    ] {
         r.push(Rect {
             min: Point2::new(x, y),
             max: Point2::new(x + w, y + h),

@@ -10,11 +10,20 @@ fn cfg() -> FieldConfig {
 }
 
 fn layout(rects: &[Rect], lo: (f64, f64), hi: (f64, f64)) -> Layout {
-    rasterise(rects, Point2::new(lo.0, lo.1), Point2::new(hi.0, hi.1), 0.1, 0.0, Point2::origin())
+    rasterise(
+        rects,
+        Point2::new(lo.0, lo.1),
+        Point2::new(hi.0, hi.1),
+        0.1,
+        0.0,
+        Point2::origin(),
+    )
 }
 
 fn run(l: &Layout, cfg: &FieldConfig) -> TensorField {
-    field_report(&l.grid, &l.surface, &l.surface, cfg).unwrap().0
+    field_report(&l.grid, &l.surface, &l.surface, cfg)
+        .unwrap()
+        .0
 }
 
 #[test]
@@ -42,12 +51,20 @@ fn closed_convex_room_sums_to_index_one_on_its_medial_axis() {
         .collect();
     assert!(!inside.is_empty());
     // Windings sum to 2 (tensor indices to +1), as Poincaré–Hopf requires for a tangential boundary.
-    assert_eq!(inside.iter().map(|p| p.winding).sum::<i32>(), 2, "{inside:?}");
+    assert_eq!(
+        inside.iter().map(|p| p.winding).sum::<i32>(),
+        2,
+        "{inside:?}"
+    );
     assert!(inside.len() <= 4, "{inside:?}");
     for p in &inside {
         let mut d = [p.x - x0, x1 - p.x, p.y - y0, y1 - p.y];
         d.sort_by(f64::total_cmp);
-        assert!(d[1] - d[0] < 0.5, "{p:?} is {} m off the medial axis", d[1] - d[0]);
+        assert!(
+            d[1] - d[0] < 0.5,
+            "{p:?} is {} m off the medial axis",
+            d[1] - d[0]
+        );
         assert!(d[0] > 1.0, "{p:?} is in the open near a wall");
     }
 }
@@ -77,17 +94,27 @@ fn t_and_plus_junctions_have_trisectors_at_the_junction() {
     ];
     let mut c = cfg();
     c.stop_at_unknown = false;
-    for (rects, centre, total) in junction.into_iter().chain([(tee, Point2::new(6.0, 6.0), -1)]) {
+    for (rects, centre, total) in junction
+        .into_iter()
+        .chain([(tee, Point2::new(6.0, 6.0), -1)])
+    {
         let l = layout(&rects, (0.03, 0.07), (12.03, 12.07));
         let f = run(&l, &c);
-        let near: Vec<&DegeneratePoint> =
-            f.points().iter().filter(|p| (p.pos() - centre).norm() < 1.2).collect();
+        let near: Vec<&DegeneratePoint> = f
+            .points()
+            .iter()
+            .filter(|p| (p.pos() - centre).norm() < 1.2)
+            .collect();
         assert!(
             near.iter().any(|p| p.kind == DegenerateKind::Trisector),
             "{:?}",
             f.points()
         );
-        assert_eq!(near.iter().map(|p| p.winding).sum::<i32>(), total, "{near:?}");
+        assert_eq!(
+            near.iter().map(|p| p.winding).sum::<i32>(),
+            total,
+            "{near:?}"
+        );
     }
 }
 
@@ -143,7 +170,11 @@ fn translating_or_rotating_constraints_moves_points_and_field_alike() {
         }
         // The field at a transformed point is the transformed field (reference evaluation).
         let k = Kernel::new(0.5, 1.0, 1e-12);
-        for q in [Point2::new(3.0, 3.0), Point2::new(4.4, 2.9), Point2::new(7.0, 1.0)] {
+        for q in [
+            Point2::new(3.0, 3.0),
+            Point2::new(4.4, 2.9),
+            Point2::new(7.0, 1.0),
+        ] {
             let a = eval::reference_at(&cs, q, &k);
             let b = eval::reference_at(&moved, pivot + rot * (q - pivot) + shift, &k);
             assert!((a.mu() - b.mu()).abs() < 1e-9);
@@ -161,24 +192,43 @@ fn office_fast_field_matches_reference_and_points_are_few_and_clear() {
     let n = f.points().len();
     eprintln!(
         "office: {} constraints, {} wedges, {} trisectors, {} other, {} edges",
-        report.constraints, report.wedges, report.trisectors, report.other_points, report.graph_edges
+        report.constraints,
+        report.wedges,
+        report.trisectors,
+        report.other_points,
+        report.graph_edges
     );
     assert!(n >= 8 && n <= 60, "{n} points");
     for p in f.points() {
         assert!(p.clearance_m >= 0.25, "{p:?}");
     }
     // Every room and the junction has a point: centres of the eight rooms.
-    for (cx, cy) in [(2.25, 4.5), (6.75, 4.5), (2.25, 15.5), (6.75, 15.5), (13.0, 15.5), (17.5, 15.5)] {
+    for (cx, cy) in [
+        (2.25, 4.5),
+        (6.75, 4.5),
+        (2.25, 15.5),
+        (6.75, 15.5),
+        (13.0, 15.5),
+        (17.5, 15.5),
+    ] {
         let c = Point2::new(cx, cy);
-        let d = f.points().iter().map(|p| (p.pos() - c).norm()).fold(f64::INFINITY, f64::min);
+        let d = f
+            .points()
+            .iter()
+            .map(|p| (p.pos() - c).norm())
+            .fold(f64::INFINITY, f64::min);
         assert!(d < 3.0, "no point within 3 m of room centre {c:?}");
     }
     let json = serde_json::to_string(&report).unwrap();
     assert!(json.contains("\"type\":\"trisector\"") || json.contains("\"type\":\"wedge\""));
     let mut img = image::RgbImage::new(l.grid.nx as u32 * 2, l.grid.ny as u32 * 2);
     draw_field(&mut img, &f, 2, 4);
-    assert!(img.pixels().any(|p| *p == draw::WEDGE || *p == draw::TRISECTOR));
-    assert!(img.pixels().any(|p| *p == draw::SEPARATRIX || *p == draw::PAIRING));
+    assert!(img
+        .pixels()
+        .any(|p| *p == draw::WEDGE || *p == draw::TRISECTOR));
+    assert!(img
+        .pixels()
+        .any(|p| *p == draw::SEPARATRIX || *p == draw::PAIRING));
 }
 
 #[test]
@@ -202,7 +252,9 @@ fn points_stay_put_as_more_of_an_axis_aligned_scene_is_revealed() {
         // Points well inside what was already seen two key frames ago keep their id and place.
         if k >= 2 {
             let settled = |p: &DegeneratePoint| {
-                seen_centres[..k - 1].iter().any(|c| (p.pos() - c).norm() < 3.0)
+                seen_centres[..k - 1]
+                    .iter()
+                    .any(|c| (p.pos() - c).norm() < 3.0)
             };
             for old in previous.iter().filter(|p| settled(p)) {
                 let now = f.points().iter().find(|p| p.id == old.id);
@@ -228,7 +280,10 @@ fn biharmonic_time_interpolation_gives_smoother_pathlines_than_linear() {
     let mut rects_b = rects_a.clone();
     rects_b.push(wall(4.0, 2.5, 4.0, 4.0, 0.2));
     rects_b.push(wall(5.0, 4.0, 8.0, 4.0, 0.2));
-    let (la, lb) = (layout(&rects_a, (-0.5, -0.5), (8.5, 4.5)), layout(&rects_b, (-0.5, -0.5), (8.5, 4.5)));
+    let (la, lb) = (
+        layout(&rects_a, (-0.5, -0.5), (8.5, 4.5)),
+        layout(&rects_b, (-0.5, -0.5), (8.5, 4.5)),
+    );
     let c = cfg();
     let (fa, fb) = (run(&la, &c), run(&lb, &c));
     let start = Point2::new(1.5, 2.0);
@@ -240,8 +295,16 @@ fn biharmonic_time_interpolation_gives_smoother_pathlines_than_linear() {
         max_iterations: c.timevary_max_iterations,
         tolerance: 1e-10,
     };
-    let bih = biharmonic_window(fa.field(), fb.field(), Point2::new(3.0, 2.0), 2.5, &params).unwrap();
-    let lin = linear_window(fa.field(), fb.field(), Point2::new(3.0, 2.0), 2.5, c.substeps).unwrap();
+    let bih =
+        biharmonic_window(fa.field(), fb.field(), Point2::new(3.0, 2.0), 2.5, &params).unwrap();
+    let lin = linear_window(
+        fa.field(),
+        fb.field(),
+        Point2::new(3.0, 2.0),
+        2.5,
+        c.substeps,
+    )
+    .unwrap();
     // Key frames are reproduced (α is large).
     let i = bih.width * 10 + 10;
     let g = &fa.field().spec;
@@ -250,12 +313,22 @@ fn biharmonic_time_interpolation_gives_smoother_pathlines_than_linear() {
     let stop = StopConditions::border_only(g);
     let length = 3.0;
     let turn = |tv: &TimeVaryingField| {
-        let (line, _) = advect::trace(|p, s| tv.sample(p, s / length), start, 0.0, length, 0.05, &stop);
+        let (line, _) = advect::trace(
+            |p, s| tv.sample(p, s / length),
+            start,
+            0.0,
+            length,
+            0.05,
+            &stop,
+        );
         assert!(line.len() > 20);
         advect::mean_turn(&line)
     };
     let (tb, tl) = (turn(&bih), turn(&lin));
-    eprintln!("mean turn per step: biharmonic {tb:.5}, linear {tl:.5}, CG iterations {}", bih.iterations);
+    eprintln!(
+        "mean turn per step: biharmonic {tb:.5}, linear {tl:.5}, CG iterations {}",
+        bih.iterations
+    );
     assert!(tb < tl, "biharmonic {tb} vs linear {tl}");
 }
 
@@ -263,7 +336,10 @@ fn biharmonic_time_interpolation_gives_smoother_pathlines_than_linear() {
 fn mismatched_layers_are_reported() {
     let g = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(1.0, 1.0), 1.0, 0.1);
     let e = MaskInputs::new(&g, &[false; 3], &[false; 100], None).unwrap_err();
-    assert_eq!(e.to_string(), "field input layer `surface` has 3 cells, the grid has 100");
+    assert_eq!(
+        e.to_string(),
+        "field input layer `surface` has 3 cells, the grid has 100"
+    );
 }
 
 #[test]
@@ -295,7 +371,9 @@ fn trisector_near_an_obstacle_is_moved_out() {
     let still = after
         .points()
         .iter()
-        .filter(|p| p.kind == DegenerateKind::Trisector && p.clearance_m < c.trisector_clearance_m - 0.15)
+        .filter(|p| {
+            p.kind == DegenerateKind::Trisector && p.clearance_m < c.trisector_clearance_m - 0.15
+        })
         .count();
     assert!(still < close.len(), "{:?}", after.points());
 }
@@ -310,12 +388,24 @@ fn dump_office_pictures() {
         let (f, r) = field_report(&l.grid, &l.surface, &l.surface, &c).unwrap();
         eprintln!("cancel {cancel}: {}", serde_json::to_string(&r).unwrap());
         for s in f.graph().separatrices.iter().take(12) {
-            eprintln!("sep from {} dir {:.2} end {:?} len {:.2} n {}", s.from, s.direction, s.end, s.length_m, s.polyline.len());
+            eprintln!(
+                "sep from {} dir {:.2} end {:?} len {:.2} n {}",
+                s.from,
+                s.direction,
+                s.end,
+                s.length_m,
+                s.polyline.len()
+            );
         }
-        let mut img = image::RgbImage::from_fn(l.grid.nx as u32 * 3, l.grid.ny as u32 * 3, |x, y| {
-            let cell = Cell::new((x / 3) as i32, (l.grid.ny as u32 - 1 - y / 3) as i32);
-            if l.surface[l.grid.index(cell)] { image::Rgb([0, 0, 0]) } else { image::Rgb([255, 255, 255]) }
-        });
+        let mut img =
+            image::RgbImage::from_fn(l.grid.nx as u32 * 3, l.grid.ny as u32 * 3, |x, y| {
+                let cell = Cell::new((x / 3) as i32, (l.grid.ny as u32 - 1 - y / 3) as i32);
+                if l.surface[l.grid.index(cell)] {
+                    image::Rgb([0, 0, 0])
+                } else {
+                    image::Rgb([255, 255, 255])
+                }
+            });
         draw_field(&mut img, &f, 3, 5);
         img.save(format!("/tmp/field_office_{cancel}.png")).unwrap();
     }

@@ -78,7 +78,8 @@ fn window(grid: &GridSpec, center: Point2<f64>, radius_m: f64) -> Option<(Cell, 
     let hi = grid.cell_at(center.x + radius_m, center.y + radius_m);
     let lo = Cell::new(lo.x.max(0), lo.y.max(0));
     let hi = Cell::new(hi.x.min(grid.nx as i32 - 1), hi.y.min(grid.ny as i32 - 1));
-    (hi.x >= lo.x && hi.y >= lo.y).then(|| (lo, (hi.x - lo.x + 1) as usize, (hi.y - lo.y + 1) as usize))
+    (hi.x >= lo.x && hi.y >= lo.y)
+        .then(|| (lo, (hi.x - lo.x + 1) as usize, (hi.y - lo.y + 1) as usize))
 }
 
 /// Point-wise linear interpolation on the same window (the baseline of TENSOR Fig. 6c).
@@ -145,7 +146,8 @@ pub fn biharmonic_window(
     }
     let omega = |l: usize, j: usize| {
         let temporal = (j > 0) as usize + (j < k) as usize;
-        (inside[l].len() + outside[l].len()) as f64 * params.omega_s + temporal as f64 * params.omega_t
+        (inside[l].len() + outside[l].len()) as f64 * params.omega_s
+            + temporal as f64 * params.omega_t
     };
     // M x (unknowns only).
     let apply_m = |x: &[f64], y: &mut [f64]| {
@@ -188,7 +190,9 @@ pub fn biharmonic_window(
             for l in 0..n_cells {
                 f[idx(l, j)] = outside[l]
                     .iter()
-                    .map(|&gi| params.omega_s * (before.ab[gi][comp] * (1.0 - t) + after.ab[gi][comp] * t))
+                    .map(|&gi| {
+                        params.omega_s * (before.ab[gi][comp] * (1.0 - t) + after.ab[gi][comp] * t)
+                    })
                     .sum();
                 x[idx(l, j)] = tv.frames[j][l][comp];
             }

@@ -18,6 +18,7 @@ use super::degenerate::{DegenerateKind, DegeneratePoint};
 use super::eval::FieldGrid;
 use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
 use nalgebra::{Point2, Vector2};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -60,7 +61,7 @@ pub struct TopologyGraph {
     pub edges: Vec<TopoEdge>,
 }
 
-/// Options of the tracer.
+/// Options of the tracer (the step is at least half a topology cell: finer buys nothing there).
 #[derive(Clone, Copy, Debug)]
 pub struct TraceOptions {
     pub step_m: f64,
@@ -137,58 +138,23 @@ pub fn build(
     opts: &TraceOptions,
 ) -> TopologyGraph {
     let positions: Vec<Point2<f64>> = nodes.iter().map(|n| n.pos()).collect();
+    // Trace every node's separatrices in parallel; results are collected in node order.
+    let traced: Vec<(Vec<Separatrix>, Vec<TopoEdge>)> = (0..nodes.len())
+        .into_par_iter()
+        .map(|i| trace_node(field, &nodes, &positions, i, fine, obstacle, unknown, opts))
+        .collect();
     let mut separatrices = Vec::new();
     let mut edges = Vec::new();
-    for (i, n) in nodes.iter().enumerate() {
-        if n.kind == DegenerateKind::Other {
-            continue;
-        }
-        for phi in separatrix_directions(field, n.pos()) {
-            let stop = StopConditions {
-                grid: fine,
-                obstacle: Some(obstacle),
-                unknown: opts.stop_at_unknown.then_some(unknown),
-                degenerate_points: &positions,
-                degenerate_radius_m: opts.arrive_radius_m,
-                origin: Some(i),
-            };
-            // Start one field cell out along the ray: at the point itself the direction is undefined.
-            let start = n.pos() + unit(phi) * field.spec.res;
-            let (mut line, end) = trace(
-                |p, _| field.sample(p).map(|s| [s.a, s.b]),
-                start,
-                phi,
-                opts.max_length_m,
-                opts.step_m,
-                &stop,
-            );
-            line.insert(0, n.pos());
-            let mut polyline: Vec<[f64; 2]> = line.iter().map(|p| [p.x, p.y]).collect();
-            let mut length_m = polyline_length(&polyline);
-            if let StopReason::NearDegenerate(j) = end {
-                polyline.push([positions[j].x, positions[j].y]);
-                length_m = polyline_length(&polyline);
-                if j != i {
-                    edges.push(TopoEdge {
-                        a: i.min(j),
-                        b: i.max(j),
-                        kind: EdgeKind::Separatrix,
-                        length_m,
-                        polyline: polyline.clone(),
-                    });
-                }
-            }
-            separatrices.push(Separatrix {
-                from: i,
-                direction: phi,
-                end,
-                length_m,
-                polyline,
-            });
-        }
+    for (s, e) in traced {
+        separatrices.extend(s);
+        edges.extend(e);
     }
     // Keep the shortest separatrix edge per pair.
-    edges.sort_by(|x, y| (x.a, x.b).cmp(&(y.a, y.b)).then(x.length_m.total_cmp(&y.length_m)));
+    edges.sort_by(|x, y| {
+        (x.a, x.b)
+            .cmp(&(y.a, y.b))
+            .then(x.length_m.total_cmp(&y.length_m))
+    });
     edges.dedup_by(|x, y| x.a == y.a && x.b == y.b);
     let mut graph = TopologyGraph {
         nodes,
@@ -197,6 +163,70 @@ pub fn build(
     };
     pair_by_shortest_paths(&mut graph, field, fine, obstacle);
     graph
+}
+
+/// The separatrices of node `i` and the edges they make.
+#[allow(clippy::too_many_arguments)]
+fn trace_node(
+    field: &FieldGrid,
+    nodes: &[DegeneratePoint],
+    positions: &[Point2<f64>],
+    i: usize,
+    fine: &GridSpec,
+    obstacle: &[bool],
+    unknown: &[bool],
+    opts: &TraceOptions,
+) -> (Vec<Separatrix>, Vec<TopoEdge>) {
+    let n = &nodes[i];
+    let mut separatrices = Vec::new();
+    let mut edges = Vec::new();
+    if n.kind == DegenerateKind::Other {
+        return (separatrices, edges);
+    }
+    for phi in separatrix_directions(field, n.pos()) {
+        let stop = StopConditions {
+            grid: fine,
+            obstacle: Some(obstacle),
+            unknown: opts.stop_at_unknown.then_some(unknown),
+            degenerate_points: positions,
+            degenerate_radius_m: opts.arrive_radius_m,
+            origin: Some(i),
+        };
+        // Start one field cell out along the ray: at the point itself the direction is undefined.
+        let start = n.pos() + unit(phi) * field.spec.res;
+        let (mut line, end) = trace(
+            |p, _| field.sample(p).map(|s| [s.a, s.b]),
+            start,
+            phi,
+            opts.max_length_m,
+            opts.step_m.max(0.5 * field.spec.res),
+            &stop,
+        );
+        line.insert(0, n.pos());
+        let mut polyline: Vec<[f64; 2]> = line.iter().map(|p| [p.x, p.y]).collect();
+        let mut length_m = polyline_length(&polyline);
+        if let StopReason::NearDegenerate(j) = end {
+            polyline.push([positions[j].x, positions[j].y]);
+            length_m = polyline_length(&polyline);
+            if j != i {
+                edges.push(TopoEdge {
+                    a: i.min(j),
+                    b: i.max(j),
+                    kind: EdgeKind::Separatrix,
+                    length_m,
+                    polyline: polyline.clone(),
+                });
+            }
+        }
+        separatrices.push(Separatrix {
+            from: i,
+            direction: phi,
+            end,
+            length_m,
+            polyline,
+        });
+    }
+    (separatrices, edges)
 }
 
 fn polyline_length(p: &[[f64; 2]]) -> f64 {
@@ -215,7 +245,12 @@ fn find(parent: &mut [usize], mut x: usize) -> usize {
 
 /// TENSOR §6 fallback: connect components by the shortest free-space paths between their points,
 /// computed on the cells of `field.spec` (a cell is blocked if any fine obstacle cell lies in it).
-fn pair_by_shortest_paths(graph: &mut TopologyGraph, field: &FieldGrid, fine: &GridSpec, obstacle: &[bool]) {
+fn pair_by_shortest_paths(
+    graph: &mut TopologyGraph,
+    field: &FieldGrid,
+    fine: &GridSpec,
+    obstacle: &[bool],
+) {
     let n = graph.nodes.len();
     if n < 2 {
         return;
@@ -284,7 +319,10 @@ fn pair_by_shortest_paths(graph: &mut TopologyGraph, field: &FieldGrid, fine: &G
             best.push((len, label[i], label[j], i, j));
         }
     }
-    best.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2, x.3, x.4).cmp(&(y.1, y.2, y.3, y.4))));
+    best.sort_by(|x, y| {
+        x.0.total_cmp(&y.0)
+            .then((x.1, x.2, x.3, x.4).cmp(&(y.1, y.2, y.3, y.4)))
+    });
     let mut uf: Vec<usize> = (0..n).collect();
     for e in &graph.edges {
         let (ra, rb) = (find(&mut uf, e.a), find(&mut uf, e.b));
@@ -356,8 +394,16 @@ impl TopologyGraph {
 
     /// Number of wedges and trisectors.
     pub fn counts(&self) -> (usize, usize) {
-        let w = self.nodes.iter().filter(|n| n.kind == DegenerateKind::Wedge).count();
-        let t = self.nodes.iter().filter(|n| n.kind == DegenerateKind::Trisector).count();
+        let w = self
+            .nodes
+            .iter()
+            .filter(|n| n.kind == DegenerateKind::Wedge)
+            .count();
+        let t = self
+            .nodes
+            .iter()
+            .filter(|n| n.kind == DegenerateKind::Trisector)
+            .count();
         (w, t)
     }
 }
