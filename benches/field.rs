@@ -125,13 +125,36 @@ fn bench(c: &mut Criterion) {
         });
         g.finish();
     }
-    // The brute-force reference (single-threaded by construction), same run.
-    let (field, _) =
+    // Full recompute against the brute-force reference (single-threaded by construction), on the
+    // same constraints (the whole office), in the same run.
+    let (mut full, _) =
         tensorscout::field::field_report(&grid, &layout.surface, &layout.surface, &cfg).unwrap();
-    let constraints = field.constraints();
+    let constraints = full.constraints();
     let kernel = eval::Kernel::new(cfg.sigma_m, cfg.decay, cfg.weight_cutoff);
-    let mut g = c.benchmark_group("field_reference");
+    let cmp = tensorscout::field::max_orientation_difference_vs_reference(&mut full);
+    eprintln!(
+        "whole office: {} constraints, {} points; fast vs reference max orientation difference {:.2e} rad",
+        constraints.len(),
+        full.points().len(),
+        cmp.max_orientation_difference_rad
+    );
+    let mut g = c.benchmark_group("field_full_office");
     g.sample_size(10);
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        g.bench_function(format!("fast_full_recompute_t{threads}"), |b| {
+            b.iter(|| pool.install(|| black_box(full.recompute_planning_field())))
+        });
+        g.bench_function(format!("degenerate_points_and_topology_t{threads}"), |b| {
+            b.iter(|| {
+                pool.install(|| full.compute_topology());
+                black_box(full.points().len())
+            })
+        });
+    }
     g.bench_function("reference_full_grid", |b| {
         b.iter(|| black_box(eval::reference_grid(&constraints, &grid, &kernel)))
     });

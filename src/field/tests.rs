@@ -377,36 +377,3 @@ fn trisector_near_an_obstacle_is_moved_out() {
         .count();
     assert!(still < close.len(), "{:?}", after.points());
 }
-
-#[test]
-#[ignore]
-fn dump_office_pictures() {
-    let l = synth::office(0.1);
-    for cancel in [false, true] {
-        let mut c = cfg();
-        c.cancel_pairs = cancel;
-        let (f, r) = field_report(&l.grid, &l.surface, &l.surface, &c).unwrap();
-        eprintln!("cancel {cancel}: {}", serde_json::to_string(&r).unwrap());
-        for s in f.graph().separatrices.iter().take(12) {
-            eprintln!(
-                "sep from {} dir {:.2} end {:?} len {:.2} n {}",
-                s.from,
-                s.direction,
-                s.end,
-                s.length_m,
-                s.polyline.len()
-            );
-        }
-        let mut img =
-            image::RgbImage::from_fn(l.grid.nx as u32 * 3, l.grid.ny as u32 * 3, |x, y| {
-                let cell = Cell::new((x / 3) as i32, (l.grid.ny as u32 - 1 - y / 3) as i32);
-                if l.surface[l.grid.index(cell)] {
-                    image::Rgb([0, 0, 0])
-                } else {
-                    image::Rgb([255, 255, 255])
-                }
-            });
-        draw_field(&mut img, &f, 3, 5);
-        img.save(format!("/tmp/field_office_{cancel}.png")).unwrap();
-    }
-}
