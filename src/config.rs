@@ -235,7 +235,7 @@ impl Config {
             )));
         }
         positive("map.log_odds_hit", self.map.log_odds_hit as f64)?;
-        if !(self.map.log_odds_miss < 0.0) {
+        if self.map.log_odds_miss.partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
             return Err(Error::usage(format!(
                 "config key `map.log_odds_miss` must be negative, got {}",
                 self.map.log_odds_miss

@@ -61,7 +61,7 @@ pub fn double_angle(dx: f64, dy: f64) -> Option<[f64; 2]> {
 /// the tangent `p_c - p_{c-1}` (the first uses `p_1 - p_0`) and strength `strength`. Their influence
 /// is the Gaussian band σ of Eq. 11, like every other constraint.
 pub fn path_constraints(path: &[Point2<f64>], d_s: f64, strength: f64) -> Vec<Constraint> {
-    if path.len() < 2 || !(d_s > 0.0) {
+    if path.len() < 2 || d_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Vec::new();
     }
     let mut samples = vec![path[0]];

@@ -580,8 +580,8 @@ fn weighted_sums(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -
     let mut acc = [[0.0f64; 4]; 3];
     let chunks = n / 4;
     for q in 0..chunks {
-        for l in 0..4 {
-            let k = q * 4 + l;
+        let k0 = q * 4;
+        for (l, k) in (k0..k0 + 4).enumerate() {
             let w = col[k] * row[k];
             acc[0][l] += w * ta[k];
             acc[1][l] += w * tb[k];

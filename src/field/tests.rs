@@ -198,7 +198,7 @@ fn office_fast_field_matches_reference_and_points_are_few_and_clear() {
         report.other_points,
         report.graph_edges
     );
-    assert!(n >= 8 && n <= 60, "{n} points");
+    assert!((8..=60).contains(&n), "{n} points");
     for p in f.points() {
         assert!(p.clearance_m >= 0.25, "{p:?}");
     }

@@ -233,7 +233,7 @@ pub fn biharmonic_window(
             }
             apply_a(&p, &mut tmp, &mut ax);
             let pap: f64 = (0..n).map(|i| p[i] * ax[i]).sum();
-            if !(pap > 0.0) {
+            if pap.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 break;
             }
             let alpha = rz / pap;
