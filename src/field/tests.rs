@@ -377,3 +377,38 @@ fn trisector_near_an_obstacle_is_moved_out() {
         .count();
     assert!(still < close.len(), "{:?}", after.points());
 }
+
+#[test]
+fn sharp_wedges_are_those_with_separatrices_under_ninety_degrees() {
+    assert!(sharp(&[0.1, 1.2, 3.0]));
+    assert!(sharp(&[6.2, 0.5]));
+    assert!(!sharp(&[0.0, 2.1, 4.2]));
+    assert!(!sharp(&[1.0]));
+}
+
+#[test]
+fn path_constraints_steer_the_planning_field_not_the_topology() {
+    let l = layout(&room(1.03, 1.07, 9.03, 5.07, 0.2), (0.0, 0.0), (10.0, 6.0));
+    let mut f = run(&l, &cfg());
+    let points: Vec<DegeneratePoint> = f.points().to_vec();
+    // A diagonal path across the room: near it the major eigenvector follows it.
+    let (a, b) = (Point2::new(3.0, 2.0), Point2::new(7.0, 4.0));
+    assert!(f.set_path(&[a, b]) > 0);
+    let mid = Point2::new(5.0, 3.0);
+    let s = f.sample(mid).unwrap();
+    let want = (b.y - a.y).atan2(b.x - a.x);
+    assert!(
+        crate::util::wrap_angle(2.0 * (s.theta() - want)).abs() < 0.05,
+        "{}",
+        s.theta()
+    );
+    let (line, _) = f.pathline(Point2::new(4.0, 2.5), want, 2.0, false);
+    let end = *line.last().unwrap();
+    assert!(((end.y - 2.5) - 0.5 * (end.x - 4.0)).abs() < 0.1, "{end:?}");
+    f.compute_topology();
+    assert_eq!(f.points(), &points[..]);
+    // Clearing the path restores the field exactly.
+    f.set_path(&[]);
+    let again = run(&l, &cfg());
+    assert_eq!(f.field(), again.field());
+}

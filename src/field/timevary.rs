@@ -179,8 +179,9 @@ pub fn biharmonic_window(
                 + penalty(j);
         }
     }
-    let mut max_iters = 0;
-    for comp in 0..2 {
+    // The two components are independent solves: run them side by side (results do not depend on it).
+    let initial = tv.frames.clone();
+    let solve = |comp: usize| -> (Vec<f64>, usize) {
         // f: fixed outside values (linear interpolation), moved to the right-hand side.
         let mut f = vec![0.0; n];
         let mut key = vec![0.0; n];
@@ -194,7 +195,7 @@ pub fn biharmonic_window(
                         params.omega_s * (before.ab[gi][comp] * (1.0 - t) + after.ab[gi][comp] * t)
                     })
                     .sum();
-                x[idx(l, j)] = tv.frames[j][l][comp];
+                x[idx(l, j)] = initial[j][l][comp];
             }
         }
         for l in 0..n_cells {
@@ -250,13 +251,14 @@ pub fn biharmonic_window(
             }
             it += 1;
         }
-        max_iters = max_iters.max(it);
-        for j in 0..=k {
-            for l in 0..n_cells {
-                tv.frames[j][l][comp] = x[idx(l, j)];
-            }
+        (x, it)
+    };
+    let ((xa, ia), (xb, ib)) = rayon::join(|| solve(0), || solve(1));
+    for j in 0..=k {
+        for l in 0..n_cells {
+            tv.frames[j][l] = [xa[idx(l, j)], xb[idx(l, j)]];
         }
     }
-    tv.iterations = max_iters;
+    tv.iterations = ia.max(ib);
     Some(tv)
 }
