@@ -24,6 +24,7 @@ pub struct Config {
     pub motion: MotionConfig,
     pub search: SearchConfig,
     pub greedy: GreedyConfig,
+    pub field: FieldConfig,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -109,6 +110,40 @@ pub struct SearchConfig {
 pub struct GreedyConfig {
     pub look_around_on_arrival: bool,
     pub view_distance_m: f64,
+}
+
+/// The tensor field (THP Eq. 11, TENSOR §4 and §6); see `src/field/`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldConfig {
+    pub d_s_m: f64,
+    pub sigma_m: f64,
+    pub decay: f64,
+    pub tangent_radius_m: f64,
+    pub min_tangent_anisotropy: f64,
+    pub weight_cutoff: f64,
+    pub path_strength: f64,
+    pub keyframe_period_s: f64,
+    pub substeps: usize,
+    pub omega_s: f64,
+    pub omega_t: f64,
+    pub alpha: f64,
+    pub timevary_radius_m: f64,
+    pub timevary_max_iterations: usize,
+    pub topology_sigma_factor: f64,
+    pub topology_cell_factor: usize,
+    pub track_radius_m: f64,
+    pub min_clearance_m: f64,
+    pub rk4_step_m: f64,
+    pub separatrix_max_length_m: f64,
+    pub arrive_radius_m: f64,
+    pub stop_at_unknown: bool,
+    pub cancel_pairs: bool,
+    pub cancel_max_iterations: usize,
+    pub move_wedges_into_corners: bool,
+    pub move_trisectors_from_obstacles: bool,
+    pub trisector_clearance_m: f64,
+    pub max_move_m: f64,
 }
 
 impl Default for Config {
@@ -266,6 +301,45 @@ impl Config {
         positive("motion.lookahead_m", self.motion.lookahead_m)?;
         positive("motion.goal_tolerance_m", self.motion.goal_tolerance_m)?;
         non_negative("motion.slow_clearance_m", self.motion.slow_clearance_m)?;
+        let f = &self.field;
+        for (key, v) in [
+            ("field.d_s_m", f.d_s_m),
+            ("field.sigma_m", f.sigma_m),
+            ("field.decay", f.decay),
+            ("field.tangent_radius_m", f.tangent_radius_m),
+            ("field.keyframe_period_s", f.keyframe_period_s),
+            ("field.omega_s", f.omega_s),
+            ("field.omega_t", f.omega_t),
+            ("field.alpha", f.alpha),
+            ("field.timevary_radius_m", f.timevary_radius_m),
+            ("field.topology_sigma_factor", f.topology_sigma_factor),
+            ("field.rk4_step_m", f.rk4_step_m),
+            ("field.arrive_radius_m", f.arrive_radius_m),
+        ] {
+            positive(key, v)?;
+        }
+        for (key, v) in [
+            ("field.min_tangent_anisotropy", f.min_tangent_anisotropy),
+            ("field.path_strength", f.path_strength),
+            ("field.track_radius_m", f.track_radius_m),
+            ("field.min_clearance_m", f.min_clearance_m),
+            ("field.separatrix_max_length_m", f.separatrix_max_length_m),
+            ("field.trisector_clearance_m", f.trisector_clearance_m),
+            ("field.max_move_m", f.max_move_m),
+        ] {
+            non_negative(key, v)?;
+        }
+        if !(f.weight_cutoff > 0.0 && f.weight_cutoff < 1.0) {
+            return Err(Error::usage(format!(
+                "config key `field.weight_cutoff` must lie in (0, 1), got {}",
+                f.weight_cutoff
+            )));
+        }
+        if f.substeps == 0 || f.topology_cell_factor == 0 {
+            return Err(Error::usage(
+                "config keys `field.substeps` and `field.topology_cell_factor` must be at least 1",
+            ));
+        }
         Ok(())
     }
 }
@@ -403,6 +477,20 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "config key `map.voxel_m` must be a positive number, got -0.1"
+        );
+    }
+
+    #[test]
+    fn bad_field_cutoff_is_rejected() {
+        let e = Config::load(None, &["field.weight_cutoff=2".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `field.weight_cutoff` must lie in (0, 1), got 2"
+        );
+        let e = Config::load(None, &["field.sigma_m=0".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `field.sigma_m` must be a positive number, got 0"
         );
     }
 

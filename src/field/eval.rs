@@ -1,0 +1,714 @@
+//! Evaluating THP Eq. 11 on a grid: the brute-force f64 reference, and the fast incremental evaluator.
+//!
+//! Both evaluate `Σ_c exp(-d(‖p−c‖² − d_min(p)²)/σ²) ρ_c (cos 2θ_c, sin 2θ_c)`, i.e. Eq. 11 scaled at
+//! each point by `exp(d·d_min²/σ²)` (DESIGN.md), which keeps magnitudes O(1) everywhere and changes
+//! no direction.
+//!
+//! The fast evaluator works in square tiles of 8×8 cells. For a tile it finds the nearest-constraint
+//! distance `D0` from the tile centre, gathers (from 8×8-cell bins) every constraint within
+//! `reach = t + sqrt((D0+t)² + R²)` (t = tile half-diagonal, `R² = -ln(cutoff)·σ²/d`), which provably
+//! includes every term whose relative weight reaches `cutoff` at any cell of the tile, and sums them
+//! with the separable Gaussian `exp(-c dx²)·exp(-c dy²)`. Surface constraints sit at cell centres, so
+//! their factors come from a table indexed by exact integer half-cell offsets (no `exp` per term).
+//! Incremental updates recompute only tiles whose `reach` contains an added or removed constraint;
+//! a tile's result depends only on the constraint set (bins are kept sorted), so the incremental field
+//! is bit-identical to a full recompute.
+
+use super::constraints::Constraint;
+use crate::grid::{Cell, GridSpec};
+use nalgebra::{Point2, Vector2};
+use rayon::prelude::*;
+
+/// Tile edge, cells.
+const TILE: usize = 8;
+/// Bin edge, fine cells.
+const BIN: i32 = 8;
+/// Largest `c·q0` for the separable path (keeps every factor far from under/overflow).
+const FAR_LIMIT: f64 = 250.0;
+
+/// The Gaussian of Eq. 11: `c = d/σ²` (1/m²) and `r2 = -ln(cutoff)/c` (m²), the squared distance
+/// beyond the nearest constraint at which a term's relative weight falls below the cutoff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Kernel {
+    pub c: f64,
+    pub r2: f64,
+}
+
+impl Kernel {
+    pub fn new(sigma_m: f64, decay: f64, cutoff: f64) -> Self {
+        let c = decay / (sigma_m * sigma_m);
+        Kernel {
+            c,
+            r2: -cutoff.ln() / c,
+        }
+    }
+}
+
+/// The field at one point: `(a, b)` and the scaled weight sum `Σ w ρ` (for the coherence μ/Σwρ).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TensorSample {
+    pub a: f64,
+    pub b: f64,
+    pub weight: f64,
+}
+
+impl TensorSample {
+    /// Anisotropy μ = |(a, b)| (the eigenvalues of the traceless tensor are ±μ).
+    pub fn mu(&self) -> f64 {
+        self.a.hypot(self.b)
+    }
+
+    /// μ relative to the weight sum, in [0, 1]: 1 where all nearby constraints agree.
+    pub fn coherence(&self) -> f64 {
+        if self.weight > 0.0 {
+            self.mu() / self.weight
+        } else {
+            0.0
+        }
+    }
+
+    /// Angle of the major eigenvector, (-π/2, π/2].
+    pub fn theta(&self) -> f64 {
+        0.5 * self.b.atan2(self.a)
+    }
+
+    /// Unit major eigenvector.
+    pub fn major(&self) -> Vector2<f64> {
+        let t = self.theta();
+        Vector2::new(t.cos(), t.sin())
+    }
+
+    /// Unit minor eigenvector.
+    pub fn minor(&self) -> Vector2<f64> {
+        let m = self.major();
+        Vector2::new(-m.y, m.x)
+    }
+}
+
+/// Brute-force reference: every constraint, f64, no cutoff.
+pub fn reference_at(constraints: &[Constraint], p: Point2<f64>, k: &Kernel) -> TensorSample {
+    let q0 = constraints
+        .iter()
+        .map(|c| (p - c.pos).norm_squared())
+        .fold(f64::INFINITY, f64::min);
+    let mut s = TensorSample::default();
+    if !q0.is_finite() {
+        return s;
+    }
+    for c in constraints {
+        let w = (-k.c * ((p - c.pos).norm_squared() - q0)).exp();
+        s.a += w * c.tensor[0];
+        s.b += w * c.tensor[1];
+        s.weight += w * c.strength;
+    }
+    s
+}
+
+/// The reference evaluated at every cell centre of `spec` (single-threaded, as the bench baseline).
+pub fn reference_grid(constraints: &[Constraint], spec: &GridSpec, k: &Kernel) -> FieldGrid {
+    let mut g = FieldGrid::zeros(*spec);
+    for i in 0..spec.cells() {
+        let s = reference_at(constraints, spec.center(spec.cell(i)), k);
+        g.ab[i] = [s.a, s.b];
+        g.weight[i] = s.weight;
+    }
+    g
+}
+
+/// A grid of `(a, b)` at cell centres, with weight sums: what topology, advection and drawing read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldGrid {
+    pub spec: GridSpec,
+    pub ab: Vec<[f64; 2]>,
+    pub weight: Vec<f64>,
+}
+
+impl FieldGrid {
+    pub fn zeros(spec: GridSpec) -> Self {
+        FieldGrid {
+            spec,
+            ab: vec![[0.0; 2]; spec.cells()],
+            weight: vec![0.0; spec.cells()],
+        }
+    }
+
+    /// The stored sample of cell index `i`.
+    pub fn at_index(&self, i: usize) -> TensorSample {
+        TensorSample {
+            a: self.ab[i][0],
+            b: self.ab[i][1],
+            weight: self.weight[i],
+        }
+    }
+
+    /// Bilinear interpolation between cell centres; `None` outside the square of centres.
+    pub fn sample(&self, p: Point2<f64>) -> Option<TensorSample> {
+        let (c0, u, v) = self.bilinear_cell(p)?;
+        let s = &self.spec;
+        let i00 = s.index(c0);
+        let i10 = i00 + 1;
+        let i01 = i00 + s.nx;
+        let i11 = i01 + 1;
+        let mix = |f: &dyn Fn(usize) -> f64| {
+            f(i00) * (1.0 - u) * (1.0 - v)
+                + f(i10) * u * (1.0 - v)
+                + f(i01) * (1.0 - u) * v
+                + f(i11) * u * v
+        };
+        Some(TensorSample {
+            a: mix(&|i| self.ab[i][0]),
+            b: mix(&|i| self.ab[i][1]),
+            weight: mix(&|i| self.weight[i]),
+        })
+    }
+
+    /// The lower-left cell of the interpolation square around `p` and the fractions in it.
+    pub fn bilinear_cell(&self, p: Point2<f64>) -> Option<(Cell, f64, f64)> {
+        let s = &self.spec;
+        let c0 = s.cell_at(p.x - 0.5 * s.res, p.y - 0.5 * s.res);
+        let c1 = Cell::new(c0.x + 1, c0.y + 1);
+        if !s.contains(c0) || !s.contains(c1) {
+            return None;
+        }
+        let o = s.center(c0);
+        Some((c0, (p.x - o.x) / s.res, (p.y - o.y) / s.res))
+    }
+}
+
+/// Constraints binned on the fine grid; bins stay sorted by position so that sums do not depend on
+/// the order constraints were added in.
+#[derive(Clone, Debug)]
+pub struct ConstraintStore {
+    fine: GridSpec,
+    slots: Vec<Option<Constraint>>,
+    free: Vec<u32>,
+    bins: Vec<Vec<u32>>,
+    bx: i32,
+    by: i32,
+}
+
+impl ConstraintStore {
+    pub fn new(fine: GridSpec) -> Self {
+        let bx = (fine.nx as i32 + BIN - 1) / BIN;
+        let by = (fine.ny as i32 + BIN - 1) / BIN;
+        ConstraintStore {
+            fine,
+            slots: Vec::new(),
+            free: Vec::new(),
+            bins: vec![Vec::new(); (bx * by) as usize],
+            bx,
+            by,
+        }
+    }
+
+    fn bin_of(&self, p: Point2<f64>) -> (i32, i32) {
+        let c = self.fine.cell_at(p.x, p.y);
+        (
+            (c.x.div_euclid(BIN)).clamp(0, self.bx - 1),
+            (c.y.div_euclid(BIN)).clamp(0, self.by - 1),
+        )
+    }
+
+    fn key(c: &Constraint) -> (f64, f64) {
+        (c.pos.y, c.pos.x)
+    }
+
+    fn order(&self, a: u32, b: u32) -> std::cmp::Ordering {
+        let (ka, kb) = (
+            Self::key(self.slots[a as usize].as_ref().expect("live")),
+            Self::key(self.slots[b as usize].as_ref().expect("live")),
+        );
+        ka.0.total_cmp(&kb.0)
+            .then(ka.1.total_cmp(&kb.1))
+            .then(a.cmp(&b))
+    }
+
+    /// Adds a constraint; returns its id.
+    pub fn insert(&mut self, c: Constraint) -> u32 {
+        let id = match self.free.pop() {
+            Some(id) => {
+                self.slots[id as usize] = Some(c);
+                id
+            }
+            None => {
+                self.slots.push(Some(c));
+                (self.slots.len() - 1) as u32
+            }
+        };
+        let (x, y) = self.bin_of(c.pos);
+        let bin = (y * self.bx + x) as usize;
+        let list = std::mem::take(&mut self.bins[bin]);
+        let pos = list
+            .binary_search_by(|&o| self.order(o, id))
+            .unwrap_or_else(|e| e);
+        let mut list = list;
+        list.insert(pos, id);
+        self.bins[bin] = list;
+        id
+    }
+
+    /// Removes constraint `id`; returns it.
+    pub fn remove(&mut self, id: u32) -> Option<Constraint> {
+        let c = self.slots.get_mut(id as usize)?.take()?;
+        let (x, y) = self.bin_of(c.pos);
+        self.bins[(y * self.bx + x) as usize].retain(|&o| o != id);
+        self.free.push(id);
+        Some(c)
+    }
+
+    pub fn get(&self, id: u32) -> Option<&Constraint> {
+        self.slots.get(id as usize).and_then(|c| c.as_ref())
+    }
+
+    /// Every live constraint, in id order.
+    pub fn all(&self) -> Vec<Constraint> {
+        self.slots.iter().flatten().copied().collect()
+    }
+
+    pub fn len(&self) -> usize {
+        self.slots.len() - self.free.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Distance from `p` to the nearest constraint (ring search over bins).
+    pub fn nearest_distance(&self, p: Point2<f64>) -> Option<f64> {
+        let (px, py) = self.bin_of(p);
+        let bin_m = BIN as f64 * self.fine.res;
+        let mut best = f64::INFINITY;
+        let max_ring = self.bx.max(self.by);
+        for ring in 0..=max_ring {
+            for y in (py - ring)..=(py + ring) {
+                for x in (px - ring)..=(px + ring) {
+                    if (x - px).abs() != ring && (y - py).abs() != ring {
+                        continue;
+                    }
+                    if x < 0 || y < 0 || x >= self.bx || y >= self.by {
+                        continue;
+                    }
+                    for &id in &self.bins[(y * self.bx + x) as usize] {
+                        let c = self.slots[id as usize].as_ref().expect("live");
+                        best = best.min((p - c.pos).norm_squared());
+                    }
+                }
+            }
+            // Bins of the next ring are at least `ring` bins away from p's bin, whose extent p is in.
+            if best.is_finite() && best.sqrt() <= ring as f64 * bin_m {
+                break;
+            }
+        }
+        best.is_finite().then(|| best.sqrt())
+    }
+
+    /// Every constraint within `r` of `p`, in bin order (deterministic).
+    pub fn within(&self, p: Point2<f64>, r: f64, out: &mut Vec<Constraint>) {
+        out.clear();
+        let (x0, y0) = self.bin_of(Point2::new(p.x - r, p.y - r));
+        let (x1, y1) = self.bin_of(Point2::new(p.x + r, p.y + r));
+        let r2 = r * r;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &id in &self.bins[(y * self.bx + x) as usize] {
+                    let c = self.slots[id as usize].as_ref().expect("live");
+                    if (p - c.pos).norm_squared() <= r2 {
+                        out.push(*c);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// One incremental field grid: a constraint store, a kernel, and the evaluated [`FieldGrid`] on a grid
+/// whose cells are `factor` fine cells wide (1 for the planning field; coarser for topology).
+#[derive(Clone, Debug)]
+pub struct FieldLevel {
+    fine: GridSpec,
+    factor: usize,
+    kernel: Kernel,
+    store: ConstraintStore,
+    pub grid: FieldGrid,
+    tiles_x: usize,
+
+    /// Per tile: the `reach` its last evaluation used (∞ before any constraint existed).
+    reach: Vec<f64>,
+    dirty: Vec<bool>,
+    /// `g[k] = exp(-c (k·h)²)` for half-cell offsets k (h = fine.res/2).
+    g: Vec<f64>,
+}
+
+struct TileOut {
+    tile: usize,
+    reach: f64,
+    values: Vec<(usize, [f64; 2], f64)>,
+}
+
+impl FieldLevel {
+    pub fn new(fine: GridSpec, factor: usize, kernel: Kernel) -> Self {
+        let factor = factor.max(1);
+        let spec = GridSpec {
+            origin_x: fine.origin_x,
+            origin_y: fine.origin_y,
+            res: fine.res * factor as f64,
+            nx: fine.nx.div_ceil(factor),
+            ny: fine.ny.div_ceil(factor),
+            nz: 1,
+        };
+        let tiles_x = spec.nx.div_ceil(TILE);
+        let tiles_y = spec.ny.div_ceil(TILE);
+        let h = fine.res / 2.0;
+        let t = (TILE as f64) * spec.res;
+        let far = (FAR_LIMIT / kernel.c).sqrt() + 4.0 * t + kernel.r2.sqrt();
+        let n = (far / h).ceil() as usize + 2;
+        let g = (0..n)
+            .map(|k| (-kernel.c * (k as f64 * h).powi(2)).exp())
+            .collect();
+        FieldLevel {
+            fine,
+            factor,
+            kernel,
+            store: ConstraintStore::new(fine),
+            grid: FieldGrid::zeros(spec),
+            tiles_x,
+
+            reach: vec![f64::INFINITY; tiles_x * tiles_y],
+            dirty: vec![false; tiles_x * tiles_y],
+            g,
+        }
+    }
+
+    pub fn kernel(&self) -> &Kernel {
+        &self.kernel
+    }
+
+    pub fn store(&self) -> &ConstraintStore {
+        &self.store
+    }
+
+    fn tile_center_and_half(&self, tile: usize) -> (Point2<f64>, f64) {
+        let (tx, ty) = (tile % self.tiles_x, tile / self.tiles_x);
+        let s = &self.grid.spec;
+        let a = s.center(Cell::new((tx * TILE) as i32, (ty * TILE) as i32));
+        let b = s.center(Cell::new(
+            ((tx * TILE + TILE).min(s.nx) - 1) as i32,
+            ((ty * TILE + TILE).min(s.ny) - 1) as i32,
+        ));
+        (
+            Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y)),
+            0.5 * (b - a).norm(),
+        )
+    }
+
+    fn mark(&mut self, p: Point2<f64>) {
+        for tile in 0..self.reach.len() {
+            if !self.dirty[tile] {
+                let (c, _) = self.tile_center_and_half(tile);
+                if (c - p).norm() < self.reach[tile] {
+                    self.dirty[tile] = true;
+                }
+            }
+        }
+    }
+
+    /// Adds a constraint (the field is updated by the next [`FieldLevel::refresh`]).
+    pub fn insert(&mut self, c: Constraint) -> u32 {
+        self.mark(c.pos);
+        self.store.insert(c)
+    }
+
+    /// Removes a constraint (the field is updated by the next [`FieldLevel::refresh`]).
+    pub fn remove(&mut self, id: u32) {
+        if let Some(c) = self.store.remove(id) {
+            self.mark(c.pos);
+        }
+    }
+
+    /// Recomputes the tiles that changed constraints can reach; returns how many cells it evaluated.
+    pub fn refresh(&mut self) -> usize {
+        let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
+        self.recompute(&tiles)
+    }
+
+    /// Recomputes every tile (the "full recompute" of the bench).
+    pub fn recompute_all(&mut self) -> usize {
+        let tiles: Vec<usize> = (0..self.dirty.len()).collect();
+        self.recompute(&tiles)
+    }
+
+    fn recompute(&mut self, tiles: &[usize]) -> usize {
+        let outs: Vec<TileOut> = tiles
+            .par_iter()
+            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
+            .collect();
+        let mut cells = 0;
+        for out in outs {
+            self.reach[out.tile] = out.reach;
+            self.dirty[out.tile] = false;
+            cells += out.values.len();
+            for (i, ab, w) in out.values {
+                self.grid.ab[i] = ab;
+                self.grid.weight[i] = w;
+            }
+        }
+        cells
+    }
+
+    fn compute_tile(&self, tile: usize, cands: &mut Vec<Constraint>) -> TileOut {
+        let s = &self.grid.spec;
+        let (tx, ty) = (tile % self.tiles_x, tile / self.tiles_x);
+        let xs: Vec<usize> = (tx * TILE..(tx * TILE + TILE).min(s.nx)).collect();
+        let ys: Vec<usize> = (ty * TILE..(ty * TILE + TILE).min(s.ny)).collect();
+        let (center, t) = self.tile_center_and_half(tile);
+        let cells: Vec<(usize, Point2<f64>)> = ys
+            .iter()
+            .flat_map(|&y| {
+                xs.iter().map(move |&x| {
+                    let c = Cell::new(x as i32, y as i32);
+                    (s.index(c), s.center(c))
+                })
+            })
+            .collect();
+        let Some(d0) = self.store.nearest_distance(center) else {
+            return TileOut {
+                tile,
+                reach: f64::INFINITY,
+                values: cells.iter().map(|&(i, _)| (i, [0.0; 2], 0.0)).collect(),
+            };
+        };
+        let k = &self.kernel;
+        let reach = t + ((d0 + t).powi(2) + k.r2).sqrt();
+        self.store.within(center, reach, cands);
+        let near_r2 = (d0 + 2.0 * t).powi(2) + 1e-9;
+        let near: Vec<Point2<f64>> = cands
+            .iter()
+            .filter(|c| (c.pos - center).norm_squared() <= near_r2)
+            .map(|c| c.pos)
+            .collect();
+        let dmin2: Vec<f64> = cells
+            .iter()
+            .map(|(_, p)| {
+                near.iter()
+                    .map(|q| (p - q).norm_squared())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        let q0 = (d0 - t).max(0.0).powi(2);
+        let mut values = Vec::with_capacity(cells.len());
+        if k.c * q0 > FAR_LIMIT {
+            // Far from every constraint: direct exponentials per term (rare: open space early on).
+            for (ci, (i, p)) in cells.iter().enumerate() {
+                let (mut a, mut b, mut w) = (0.0, 0.0, 0.0);
+                for c in cands.iter() {
+                    let wt = (-k.c * ((p - c.pos).norm_squared() - dmin2[ci])).exp();
+                    a += wt * c.tensor[0];
+                    b += wt * c.tensor[1];
+                    w += wt * c.strength;
+                }
+                values.push((*i, [a, b], w));
+            }
+            return TileOut {
+                tile,
+                reach,
+                values,
+            };
+        }
+        // Separable factors: col[j][k] = exp(-c dx²), row[i][k] = exp(c q0 − c dy²).
+        let n = cands.len();
+        let e0 = (k.c * q0).exp();
+        let f = self.factor as i64;
+        let mut col = vec![0.0; xs.len() * n];
+        let mut row = vec![0.0; ys.len() * n];
+        let h = self.fine.res / 2.0;
+        let gval = |d: i64| -> f64 {
+            let d = d.unsigned_abs() as usize;
+            match self.g.get(d) {
+                Some(&v) => v,
+                None => (-k.c * (d as f64 * h).powi(2)).exp(),
+            }
+        };
+        for (ci, c) in cands.iter().enumerate() {
+            match c.cell {
+                Some(cell) => {
+                    let (hx, hy) = (2 * cell.x as i64 + 1, 2 * cell.y as i64 + 1);
+                    for (j, &x) in xs.iter().enumerate() {
+                        col[j * n + ci] = gval((2 * x as i64 + 1) * f - hx);
+                    }
+                    for (i, &y) in ys.iter().enumerate() {
+                        row[i * n + ci] = gval((2 * y as i64 + 1) * f - hy) * e0;
+                    }
+                }
+                None => {
+                    for (j, &x) in xs.iter().enumerate() {
+                        let px = s.center(Cell::new(x as i32, 0)).x;
+                        col[j * n + ci] = (-k.c * (px - c.pos.x).powi(2)).exp();
+                    }
+                    for (i, &y) in ys.iter().enumerate() {
+                        let py = s.center(Cell::new(0, y as i32)).y;
+                        row[i * n + ci] = (k.c * (q0 - (py - c.pos.y).powi(2))).exp();
+                    }
+                }
+            }
+        }
+        let ta: Vec<f64> = cands.iter().map(|c| c.tensor[0]).collect();
+        let tb: Vec<f64> = cands.iter().map(|c| c.tensor[1]).collect();
+        let st: Vec<f64> = cands.iter().map(|c| c.strength).collect();
+        let mut ci = 0;
+        for i in 0..ys.len() {
+            let r = &row[i * n..(i + 1) * n];
+            for j in 0..xs.len() {
+                let cl = &col[j * n..(j + 1) * n];
+                let [a, b, w] = weighted_sums(cl, r, &ta, &tb, &st);
+                let scale = (k.c * (dmin2[ci] - q0)).exp();
+                values.push((cells[ci].0, [a * scale, b * scale], w * scale));
+                ci += 1;
+            }
+        }
+        TileOut {
+            tile,
+            reach,
+            values,
+        }
+    }
+}
+
+/// `Σ col·row·(ta, tb, st)` with four independent accumulators (lets the compiler vectorise; the
+/// fixed order keeps results identical whatever the thread count).
+fn weighted_sums(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -> [f64; 3] {
+    let n = col.len();
+    let mut acc = [[0.0f64; 4]; 3];
+    let chunks = n / 4;
+    for q in 0..chunks {
+        let k0 = q * 4;
+        for (l, k) in (k0..k0 + 4).enumerate() {
+            let w = col[k] * row[k];
+            acc[0][l] += w * ta[k];
+            acc[1][l] += w * tb[k];
+            acc[2][l] += w * st[k];
+        }
+    }
+    let mut out = [0.0; 3];
+    for (o, a) in out.iter_mut().zip(acc.iter()) {
+        *o = (a[0] + a[1]) + (a[2] + a[3]);
+    }
+    for k in chunks * 4..n {
+        let w = col[k] * row[k];
+        out[0] += w * ta[k];
+        out[1] += w * tb[k];
+        out[2] += w * st[k];
+    }
+    out
+}
+
+/// Largest orientation difference (radians, of the major eigenvector) between two grids over cells
+/// where `reference` has coherence at least `min_coherence`.
+pub fn max_orientation_difference(
+    fast: &FieldGrid,
+    reference: &FieldGrid,
+    min_coherence: f64,
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    for i in 0..reference.ab.len() {
+        let r = reference.at_index(i);
+        if r.coherence() < min_coherence {
+            continue;
+        }
+        let f = fast.at_index(i);
+        let d = crate::util::wrap_angle(2.0 * (f.theta() - r.theta())).abs() / 2.0;
+        worst = worst.max(d);
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::constraints::path_constraints;
+
+    fn fine() -> GridSpec {
+        GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(9.0, 7.0), 1.0, 0.1)
+    }
+
+    fn wall_constraints(g: &GridSpec) -> Vec<Constraint> {
+        let mut cs = Vec::new();
+        for x in (10..80).step_by(2) {
+            let c = Cell::new(x, 10);
+            cs.push(Constraint::along(g.center(c), Vector2::new(1.0, 0.0), 1.0, Some(c)).unwrap());
+        }
+        for y in (10..60).step_by(2) {
+            let c = Cell::new(12, y);
+            cs.push(Constraint::along(g.center(c), Vector2::new(1.0, 2.0), 1.0, Some(c)).unwrap());
+        }
+        cs
+    }
+
+    #[test]
+    fn fast_matches_reference_on_both_levels_and_with_free_constraints() {
+        let g = fine();
+        let mut cs = wall_constraints(&g);
+        cs.extend(path_constraints(
+            &[Point2::new(2.0, 5.0), Point2::new(7.5, 2.3)],
+            0.2,
+            1.0,
+        ));
+        for (factor, sigma) in [(1, 0.5), (2, 1.0), (3, 0.7)] {
+            let k = Kernel::new(sigma, 1.0, 1e-12);
+            let mut lvl = FieldLevel::new(g, factor, k);
+            for c in &cs {
+                lvl.insert(*c);
+            }
+            lvl.refresh();
+            let r = reference_grid(&cs, &lvl.grid.spec, &k);
+            let d = max_orientation_difference(&lvl.grid, &r, 1e-4);
+            assert!(d < 1e-6, "factor {factor}: {d}");
+            for i in 0..r.ab.len() {
+                let (f, rr) = (lvl.grid.at_index(i), r.at_index(i));
+                assert!(
+                    (f.weight - rr.weight).abs() <= 1e-9 * rr.weight.max(1.0),
+                    "factor {factor} cell {i}: {f:?} vs {rr:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn incremental_equals_full_recompute_bit_for_bit() {
+        let g = fine();
+        let cs = wall_constraints(&g);
+        let k = Kernel::new(0.5, 1.0, 1e-12);
+        let mut inc = FieldLevel::new(g, 1, k);
+        for c in &cs[..20] {
+            inc.insert(*c);
+        }
+        inc.refresh();
+        let mut ids = Vec::new();
+        for c in &cs[20..] {
+            ids.push(inc.insert(*c));
+        }
+        let partial = inc.refresh();
+        assert!(partial > 0);
+        inc.remove(ids[3]);
+        inc.refresh();
+        let mut full = FieldLevel::new(g, 1, k);
+        for (n, c) in cs.iter().enumerate() {
+            if n != 23 {
+                full.insert(*c);
+            }
+        }
+        full.recompute_all();
+        assert_eq!(inc.grid, full.grid);
+    }
+
+    #[test]
+    fn far_field_is_finite_and_directional() {
+        // One constraint, evaluated 8 m away: unscaled weights would be exp(-256); scaled they are 1.
+        let g = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(10.0, 2.0), 1.0, 0.1);
+        let c = Cell::new(0, 0);
+        let mut lvl = FieldLevel::new(g, 1, Kernel::new(0.5, 1.0, 1e-12));
+        lvl.insert(Constraint::along(g.center(c), Vector2::new(0.0, 1.0), 1.0, Some(c)).unwrap());
+        lvl.refresh();
+        let far = lvl.grid.at_index(g.index(Cell::new(95, 10)));
+        assert_eq!([far.a, far.b, far.weight], [-1.0, 0.0, 1.0]);
+    }
+}
