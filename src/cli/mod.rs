@@ -1,6 +1,7 @@
 //! Argument definitions and dispatch, one file per subcommand.
 
 mod explore;
+mod field;
 mod scene;
 
 use anyhow::Result;
@@ -33,6 +34,12 @@ tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2
     /// Generate, import, inspect or draw scenes.
     #[command(subcommand)]
     Scene(scene::SceneCommand),
+    /// Inspect the tensor field of a scene and its topology (degenerate points, separatrices).
+    #[command(
+        after_help = "Examples:\n  tensorscout field --scene scenes/office_large.obj --png field.png\n  \
+tensorscout field --scene scenes/small_house.obj --json --reference"
+    )]
+    Field(field::FieldArgs),
     /// Print configuration.
     #[command(subcommand)]
     Config(ConfigCommand),
@@ -66,6 +73,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Explore(args) => explore::run(args),
         Command::Scene(cmd) => scene::run(cmd),
+        Command::Field(args) => field::run(args),
         Command::Config(ConfigCommand::Default) => {
             print!("{}", tensorscout::config::DEFAULT_TOML);
             Ok(())

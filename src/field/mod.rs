@@ -68,6 +68,22 @@ pub trait FieldInputs {
     fn is_unknown(&self, cell: usize) -> bool;
 }
 
+/// The map's layers drive the field during a run.
+impl FieldInputs for crate::map::Map {
+    fn grid(&self) -> &GridSpec {
+        crate::map::Map::grid(self)
+    }
+    fn is_surface(&self, cell: usize) -> bool {
+        crate::map::Map::is_surface(self, cell)
+    }
+    fn is_obstacle(&self, cell: usize) -> bool {
+        crate::map::Map::is_obstacle(self, cell)
+    }
+    fn is_unknown(&self, cell: usize) -> bool {
+        crate::map::Map::is_unknown(self, cell)
+    }
+}
+
 /// [`FieldInputs`] over plain slices (one flag per cell).
 #[derive(Clone, Copy, Debug)]
 pub struct MaskInputs<'a> {

@@ -83,14 +83,6 @@ impl Planner for Greedy {
                 }
             }
         }
-        if std::env::var("TS_DEBUG").is_ok() {
-            let reach = (0..grid.cells())
-                .filter(|&i| df.cost_to(i).is_some())
-                .count();
-            let fr = map.frontier_cells().iter().filter(|&&f| f).count();
-            let bl = self.unobservable.iter().filter(|&&f| f).count();
-            eprintln!("t={:.1} segs={} frontier_cells={} reachable={} blacklisted={} best={:?} start_trav={}", ctx.time_s, segments.len(), fr, reach, bl, best, map.is_traversable(start));
-        }
         let Some((_, goal, k)) = best else {
             self.target.clear();
             return Ok(Action::Complete);

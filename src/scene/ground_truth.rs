@@ -166,6 +166,21 @@ impl GroundTruth {
         &self.surface
     }
 
+    /// The map's surface layer as if the scene were fully observed: region cells with a surface
+    /// voxel in the band.
+    pub fn surface_columns(&self) -> Vec<bool> {
+        let mut columns = vec![false; self.grid.cells()];
+        for &v in &self.surface {
+            columns[self.grid.voxel_parts(v as usize).0] = true;
+        }
+        columns
+    }
+
+    /// The obstacle layer as if the scene were fully observed.
+    pub fn obstacle_columns(&self) -> &[bool] {
+        &self.obstacle
+    }
+
     /// Distance from the cell centre to the nearest obstacle-column cell centre, metres
     /// (`f32::INFINITY` if there is none).
     pub fn clearance_m(&self, cell: usize) -> f32 {

@@ -188,13 +188,6 @@ pub fn run(
         match status {
             MotionStatus::Busy => {}
             MotionStatus::Done | MotionStatus::Blocked => {
-                if std::env::var("TS_DEBUG").is_ok() && status == MotionStatus::Blocked {
-                    eprintln!(
-                        "blocked at {:?} clearance {:.3}",
-                        robot.pose,
-                        super::motion::obstacle_clearance(&map, robot.pose.position(), 1.0)
-                    );
-                }
                 let ctx = PlanContext {
                     map: &map,
                     pose: robot.pose,

@@ -1,0 +1,96 @@
+//! `tensorscout field`: the tensor field of a scene and its topology, as if fully observed.
+
+use super::{check_output, ConfigArgs};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use tensorscout::field::{self, draw::draw_field};
+use tensorscout::scene::{self, GroundTruth};
+use tensorscout::{render, Pose2};
+
+/// What the field is built from.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Known {
+    /// The whole ground truth, as if the scene had been fully observed.
+    Full,
+}
+
+#[derive(Args)]
+pub struct FieldArgs {
+    /// Scene file: OBJ, PLY, ROS map `.yaml` or HouseExpo `.json`.
+    #[arg(long, value_name = "PATH")]
+    scene: PathBuf,
+    /// What is known of the scene.
+    #[arg(long, value_enum, default_value = "full")]
+    known: Known,
+    /// Start pose `X,Y[,YAW]`; it picks the explorable region (default: the scene's own).
+    #[arg(long, value_name = "X,Y[,YAW]", value_parser = super::parse_spawn)]
+    spawn: Option<Pose2>,
+    #[command(flatten)]
+    config: ConfigArgs,
+    /// Draw the field (glyphs coloured by anisotropy), wedges, trisectors and separatrices.
+    #[arg(long, value_name = "PATH")]
+    png: Option<PathBuf>,
+    /// Print the counts, timings and degenerate points as one JSON object.
+    #[arg(long)]
+    json: bool,
+    /// Also run the brute-force f64 evaluator and compare orientations and speed.
+    #[arg(long)]
+    reference: bool,
+    /// Overwrite the PNG if it exists.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(args: FieldArgs) -> Result<()> {
+    let cfg = args.config.load()?;
+    if let Some(png) = &args.png {
+        check_output(png, args.force)?;
+    }
+    let scene = scene::load(&args.scene, &cfg.scene)?;
+    let gt = GroundTruth::build(&scene.mesh, args.spawn.or(scene.spawn), &cfg)?;
+    let Known::Full = args.known;
+    let surface = gt.surface_columns();
+    let (mut tensor_field, report) =
+        field::field_report(&gt.grid, &surface, gt.obstacle_columns(), &cfg.field)?;
+    let comparison = args
+        .reference
+        .then(|| field::max_orientation_difference_vs_reference(&mut tensor_field));
+    if let Some(png) = &args.png {
+        let mut canvas = render::draw_ground_truth(&gt);
+        let scale = canvas.scale;
+        draw_field(&mut canvas.image, &tensor_field, scale, 4);
+        canvas.save(png)?;
+    }
+    if args.json {
+        let mut value = serde_json::to_value(&report)?;
+        value["scene"] = scene.name.clone().into();
+        if let Some(c) = &comparison {
+            value["reference"] = serde_json::to_value(c)?;
+        }
+        println!("{}", serde_json::to_string(&value)?);
+    } else {
+        println!("scene          {}", scene.name);
+        println!("constraints    {}", report.constraints);
+        println!(
+            "degenerate     {} wedges, {} trisectors, {} other",
+            report.wedges, report.trisectors, report.other_points
+        );
+        println!(
+            "topology       {} separatrices, {} graph edges",
+            report.separatrices, report.graph_edges
+        );
+        let t = &report.timings_ms;
+        println!(
+            "timings        sampling {:.1} ms, field {:.1} ms, topology {:.1} ms, total {:.1} ms",
+            t.sampling, t.field, t.topology, t.total
+        );
+        if let Some(c) = &comparison {
+            println!(
+                "reference      max orientation difference {:.2e} rad; reference {:.1} ms vs fast {:.1} ms ({:.0}×)",
+                c.max_orientation_difference_rad, c.reference_ms, c.fast_full_ms, c.speed_ratio
+            );
+        }
+    }
+    Ok(())
+}
