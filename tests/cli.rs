@@ -252,7 +252,10 @@ fn explore_json_has_the_contract_keys_and_is_deterministic() {
     }
     assert_eq!(a["termination"], "complete");
     assert_eq!(a["collisions"], 0);
-    assert!(a["completeness"].as_f64().unwrap() > 0.9);
+    // The band's top (1.8 m) is only in view 2.8 m or more from the 0.6 m camera, so a small room
+    // keeps some voxels high up unseen.
+    assert!(a["completeness"].as_f64().unwrap() > 0.85);
+    assert!(a["surface_coverage"].as_f64().unwrap() > 0.9);
     let b = explore_json(s, "2");
     assert_eq!(without_wall_clock(a.clone()), without_wall_clock(b));
     let c = explore_json(s, "1");

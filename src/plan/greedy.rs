@@ -29,6 +29,8 @@ pub struct Greedy {
     /// Failed attempts per target cell, keyed by the cell the robot aimed at.
     attempts: Vec<(usize, u32)>,
     aim: Option<usize>,
+    /// The current target lies in the blind zone and the robot is stepping back to see it.
+    near_view: bool,
 }
 
 impl Greedy {
@@ -67,36 +69,67 @@ impl Planner for Greedy {
             start,
             f32::INFINITY,
         );
-        // Nearest observable frontier cell over all segments; ties go to the lower cell index.
+        // Nearest observable frontier cell over all segments, beyond the blind zone if there is one;
+        // ties go to the lower cell index.
         let mut best: Option<(f32, usize, usize)> = None;
+        let mut best_near: Option<(f32, usize, usize)> = None;
         let segments = map.frontiers();
         for (k, seg) in segments.iter().enumerate() {
             for c in &seg.cells {
                 let i = grid.index(*c);
-                if self.unobservable[i] || (grid.center(*c) - robot).norm_squared() <= near2 {
+                if self.unobservable[i] {
                     continue;
                 }
                 if let Some(d) = df.cost_to(i) {
-                    if best.is_none_or(|(bd, bi, _)| (d, i) < (bd, bi)) {
-                        best = Some((d, i, k));
+                    let near = (grid.center(*c) - robot).norm_squared() <= near2;
+                    let slot = if near { &mut best_near } else { &mut best };
+                    if slot.is_none_or(|(bd, bi, _)| (d, i) < (bd, bi)) {
+                        *slot = Some((d, i, k));
                     }
                 }
             }
         }
+        self.aim = None;
+        self.near_view = false;
+        let look_on_arrival = ctx.cfg.greedy.look_around_on_arrival;
+        let view_m = ctx.cfg.greedy.view_distance_m;
         let Some((_, goal, k)) = best else {
-            self.target.clear();
-            return Ok(Action::Complete);
+            // Only frontiers in the blind zone are left: step back to a viewpoint from which the
+            // camera sees the floor there (the least-cost cell `view_distance_m` to twice that away).
+            let Some((_, near_goal, k)) = best_near else {
+                self.target.clear();
+                return Ok(Action::Complete);
+            };
+            self.target = segments[k].cells.clone();
+            self.aim = Some(near_goal);
+            self.near_view = true;
+            let f = grid.center(grid.cell(near_goal));
+            let viewpoint = (0..grid.cells())
+                .filter(|&i| map.is_traversable(i))
+                .filter_map(|i| {
+                    let d = (grid.center(grid.cell(i)) - f).norm();
+                    (d >= view_m && d <= 2.0 * view_m)
+                        .then(|| df.cost_to(i).map(|c| (c, i)))
+                        .flatten()
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let Some((_, v)) = viewpoint else {
+                self.path_cells.clear();
+                return Ok(Action::LookAround);
+            };
+            let path = df.path_to(&grid, v).expect("reachable by construction");
+            self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
+            return Ok(Action::Follow {
+                path: path.cells.iter().map(|c| grid.center(*c)).collect(),
+                look_on_arrival,
+            });
         };
         let path = df.path_to(&grid, goal).expect("reachable by construction");
         self.target = segments[k].cells.clone();
         // Stop `view_distance_m` short of the frontier (measured along the path).
         let mut keep = path.cells.len();
         let mut remaining = 0.0;
-        let view_distance_m = if self.approached[goal] {
-            0.0
-        } else {
-            ctx.cfg.greedy.view_distance_m
-        };
+        let view_distance_m = if self.approached[goal] { 0.0 } else { view_m };
         while keep > 1 && remaining < view_distance_m {
             remaining +=
                 (grid.center(path.cells[keep - 1]) - grid.center(path.cells[keep - 2])).norm();
@@ -105,7 +138,6 @@ impl Planner for Greedy {
         let cells = &path.cells[..keep];
         self.path_cells = cells.iter().skip(1).map(|c| grid.index(*c)).collect();
         self.aim = Some(goal);
-        let look_on_arrival = ctx.cfg.greedy.look_around_on_arrival;
         if cells.len() < 2 {
             return Ok(Action::LookAround);
         }
@@ -141,7 +173,7 @@ impl Planner for Greedy {
             return;
         }
         if reached {
-            if self.approached[aim] {
+            if self.approached[aim] || self.near_view {
                 // Looked from the frontier itself and it is still one: nothing more can be seen.
                 self.give_up_target(ctx);
             } else {

@@ -1,0 +1,49 @@
+//! GREEDY explores every shipped scene to the end: complete, nearly all the explorable volume and
+//! surface observed, and never a collision.
+
+use std::path::Path;
+use tensorscout::plan::PlannerKind;
+use tensorscout::scene;
+use tensorscout::sim::{self, Termination, World};
+use tensorscout::Config;
+
+#[test]
+fn greedy_completes_every_shipped_scene() {
+    let cfg = Config::default();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut scenes: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "obj"))
+        .collect();
+    scenes.sort();
+    let mut failures = Vec::new();
+    for path in scenes {
+        let scene = scene::load(&path, &cfg.scene).unwrap();
+        let world = World::new(&scene, &cfg, None).unwrap();
+        let out = sim::run(
+            &scene,
+            world,
+            &cfg,
+            PlannerKind::Greedy,
+            &mut sim::NoObserver,
+        )
+        .unwrap();
+        let r = &out.result;
+        let ok = r.termination == Termination::Complete
+            && r.completeness >= 0.95
+            && r.surface_coverage >= 0.90
+            && r.collisions == 0;
+        if !ok {
+            failures.push(format!(
+                "{}: {} completeness {:.3} surface {:.3} collisions {}",
+                r.scene,
+                r.termination.as_str(),
+                r.completeness,
+                r.surface_coverage,
+                r.collisions
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
