@@ -261,3 +261,18 @@ fn explore_json_has_the_contract_keys_and_is_deterministic() {
     let c = explore_json(s, "1");
     assert_eq!(without_wall_clock(a), without_wall_clock(c));
 }
+
+#[test]
+fn every_example_config_loads() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let mut n = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            tensorscout::Config::load(Some(&path), &[])
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            n += 1;
+        }
+    }
+    assert!(n >= 3);
+}
