@@ -268,7 +268,7 @@ impl TensorField {
         self.sample_ids.iter().filter(|s| s.0.is_some()).count()
     }
 
-    /// Distance from `p` to the nearest known obstacle (chamfer distance on cells; ∞ if none).
+    /// Distance from `p` to the nearest known obstacle (exact Euclidean distance between cell centres; ∞ if none).
     pub fn clearance_at(&self, p: Point2<f64>) -> f64 {
         self.grid
             .cell_of(p)
@@ -384,7 +384,7 @@ impl TensorField {
     /// Degenerate points (tracked), separatrices and graph, with topological control if enabled.
     /// Public so that the bench can time it on its own.
     pub fn compute_topology(&mut self) {
-        self.clearance = chamfer_distance(&self.grid, &self.obstacle);
+        self.clearance = obstacle_distance(&self.grid, &self.obstacle);
         self.topo_field = self.topo.as_ref().unwrap_or(&self.main).grid.clone();
         let opts = topology::TraceOptions {
             step_m: self.cfg.rk4_step_m,
@@ -568,40 +568,12 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// Distance to the nearest `true` cell (two-pass 3-4 chamfer, ≤ 8 % above the Euclidean), metres.
-pub fn chamfer_distance(grid: &GridSpec, mask: &[bool]) -> Vec<f64> {
-    let (nx, ny) = (grid.nx, grid.ny);
-    let big = u32::MAX / 4;
-    let mut d: Vec<u32> = mask.iter().map(|&m| if m { 0 } else { big }).collect();
-    let fwd = [(-1i32, 0i32, 3u32), (0, -1, 3), (-1, -1, 4), (1, -1, 4)];
-    for y in 0..ny as i32 {
-        for x in 0..nx as i32 {
-            let i = grid.index(Cell::new(x, y));
-            for &(dx, dy, w) in &fwd {
-                if let Some(j) = grid.checked_index(Cell::new(x + dx, y + dy)) {
-                    d[i] = d[i].min(d[j] + w);
-                }
-            }
-        }
-    }
-    for y in (0..ny as i32).rev() {
-        for x in (0..nx as i32).rev() {
-            let i = grid.index(Cell::new(x, y));
-            for &(dx, dy, w) in &fwd {
-                if let Some(j) = grid.checked_index(Cell::new(x - dx, y - dy)) {
-                    d[i] = d[i].min(d[j] + w);
-                }
-            }
-        }
-    }
-    d.into_iter()
-        .map(|v| {
-            if v >= big {
-                f64::INFINITY
-            } else {
-                v as f64 / 3.0 * grid.res
-            }
-        })
+/// Euclidean distance from every cell centre to the nearest `true` cell centre, metres (the exact
+/// transform the ground truth uses); `f64::INFINITY` where there is none.
+pub fn obstacle_distance(grid: &GridSpec, mask: &[bool]) -> Vec<f64> {
+    crate::scene::ground_truth::distance_transform(mask, grid.nx, grid.ny)
+        .into_iter()
+        .map(|d2| d2.sqrt() * grid.res)
         .collect()
 }
 
