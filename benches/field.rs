@@ -1,43 +1,64 @@
-//! Tensor field speed on a synthetic 20 × 20 m office at 0.1 m (see `src/field/synth.rs`):
-//! incremental key-frame update, full recompute against the brute-force reference, degenerate points
-//! plus topology, and the time-varying window solve; with one and two rayon threads.
+//! Tensor field speed at 0.1 m on the largest shipped scene (`scenes/office_large.obj`): incremental
+//! key-frame updates on the map layers of a real GREEDY run (one key frame every 4 s of simulated
+//! time), a full recompute against the brute-force reference on the fully observed scene, degenerate
+//! points plus topology, and the time-varying window solve; with one and two rayon threads.
 //!
-//! `cargo bench --bench field` (prints the p50 of a simulated run's key-frame updates to stderr).
+//! `cargo bench --bench field` (prints the p50 of the run's key-frame updates to stderr).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use nalgebra::Point2;
 use std::hint::black_box;
+use std::path::Path;
 use tensorscout::config::Config;
-use tensorscout::field::{eval, synth, MaskInputs, SpaceTimeParams, TensorField};
+use tensorscout::field::{eval, MaskInputs, SpaceTimeParams, TensorField};
+use tensorscout::plan::PlannerKind;
+use tensorscout::scene::{self, GroundTruth};
+use tensorscout::sim::{self, Observer, StepView, World};
+use tensorscout::GridSpec;
 
-/// The robot's key-frame positions along the office's corridors and into rooms.
-fn route() -> Vec<Point2<f64>> {
-    let mut r = Vec::new();
-    for k in 0..=18 {
-        r.push(Point2::new(1.0 + k as f64, 10.0));
-    }
-    for k in 0..=8 {
-        r.push(Point2::new(10.0, 11.0 + k as f64));
-    }
-    for k in 0..=8 {
-        r.push(Point2::new(10.0, 9.0 - k as f64));
-    }
-    r
+/// The map's surface and obstacle layers at every key frame of a GREEDY run.
+struct KeyFrames {
+    every_steps: u64,
+    surface: Vec<Vec<bool>>,
+    obstacle: Vec<Vec<bool>>,
 }
 
-/// Surface revealed after each key frame (everything within 5 m of the route so far).
-fn reveals(layout: &synth::Layout) -> Vec<Vec<bool>> {
-    let route = route();
-    (1..=route.len())
-        .map(|k| synth::reveal(layout, &route[..k], 5.0))
-        .collect()
+impl Observer for KeyFrames {
+    fn on_step(&mut self, view: &StepView) {
+        if view.step % self.every_steps == 0 {
+            self.surface.push(view.map.surface_cells().to_vec());
+            let grid = view.map.grid();
+            self.obstacle
+                .push((0..grid.cells()).map(|i| view.map.is_obstacle(i)).collect());
+        }
+    }
+}
+
+/// The shipped scene's grid, its fully observed surface and obstacle layers, and a run's key frames.
+fn office_large(cfg: &Config) -> (GridSpec, Vec<bool>, Vec<bool>, KeyFrames) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office_large.obj");
+    let scene = scene::load(&path, &cfg.scene).unwrap();
+    let gt = GroundTruth::build(&scene.mesh, scene.spawn, cfg).unwrap();
+    let mut frames = KeyFrames {
+        every_steps: (cfg.field.keyframe_period_s / cfg.sim.dt_s).round() as u64,
+        surface: Vec::new(),
+        obstacle: Vec::new(),
+    };
+    let world = World::new(&scene, cfg, None).unwrap();
+    sim::run(&scene, world, cfg, PlannerKind::Greedy, &mut frames).unwrap();
+    (
+        gt.grid,
+        gt.surface_columns(),
+        gt.obstacle_columns().to_vec(),
+        frames,
+    )
 }
 
 fn bench(c: &mut Criterion) {
-    let cfg = Config::default().field;
-    let layout = synth::office(0.1);
-    let frames = reveals(&layout);
-    let grid = layout.grid;
+    let full_cfg = Config::default();
+    let cfg = full_cfg.field.clone();
+    let (grid, full_surface, full_obstacle, keyframes) = office_large(&full_cfg);
+    let frames = &keyframes.surface;
+    let obstacles = &keyframes.obstacle;
     for threads in [1usize, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -49,9 +70,9 @@ fn bench(c: &mut Criterion) {
             let mut states = Vec::new();
             let mut times = Vec::new();
             let mut topo_times = Vec::new();
-            for s in &frames {
+            for (s, o) in frames.iter().zip(obstacles) {
                 states.push(field.clone());
-                let inputs = MaskInputs::new(&grid, s, s, None).unwrap();
+                let inputs = MaskInputs::new(&grid, s, o, None).unwrap();
                 let t = std::time::Instant::now();
                 field.update_field(&inputs).unwrap();
                 times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -87,7 +108,7 @@ fn bench(c: &mut Criterion) {
                     (states[k].clone(), k)
                 },
                 |(mut f, k)| {
-                    let inputs = MaskInputs::new(&grid, &frames[k], &frames[k], None).unwrap();
+                    let inputs = MaskInputs::new(&grid, &frames[k], &obstacles[k], None).unwrap();
                     pool.install(|| black_box(f.update_field(&inputs).unwrap()))
                 },
                 BatchSize::LargeInput,
@@ -117,7 +138,7 @@ fn bench(c: &mut Criterion) {
                 black_box(tensorscout::field::biharmonic_window(
                     &before,
                     field.field(),
-                    Point2::new(10.0, 10.0),
+                    grid.center(grid.cell(grid.cells() / 2 + grid.nx / 2)),
                     cfg.timevary_radius_m,
                     &params,
                 ))
@@ -126,19 +147,19 @@ fn bench(c: &mut Criterion) {
         g.finish();
     }
     // Full recompute against the brute-force reference (single-threaded by construction), on the
-    // same constraints (the whole office), in the same run.
+    // same constraints (the fully observed scene), in the same run.
     let (mut full, _) =
-        tensorscout::field::field_report(&grid, &layout.surface, &layout.surface, &cfg).unwrap();
+        tensorscout::field::field_report(&grid, &full_surface, &full_obstacle, &cfg).unwrap();
     let constraints = full.constraints();
     let kernel = eval::Kernel::new(cfg.sigma_m, cfg.decay, cfg.weight_cutoff);
     let cmp = tensorscout::field::max_orientation_difference_vs_reference(&mut full);
     eprintln!(
-        "whole office: {} constraints, {} points; fast vs reference max orientation difference {:.2e} rad",
+        "office_large fully observed: {} constraints, {} points; fast vs reference max orientation difference {:.2e} rad",
         constraints.len(),
         full.points().len(),
         cmp.max_orientation_difference_rad
     );
-    let mut g = c.benchmark_group("field_full_office");
+    let mut g = c.benchmark_group("field_full_office_large");
     g.sample_size(10);
     for threads in [1usize, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
