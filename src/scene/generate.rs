@@ -901,10 +901,10 @@ fn place_cubicles(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
     }
 }
 
-/// Rows of back-to-back full-height racks (1 m deep) along the hall's longer side, 2 m aisles,
+/// Rows of back-to-back full-height racks (1 m deep) along the hall's longer side, 3 m aisles (counterbalance forklifts need 3–3.5 m),
 /// 2.5 m cross-aisles at both ends.
 fn place_shelf_rows(plan: &mut Plan, room: Rect, rng: &mut ChaCha8Rng) {
-    let (depth, aisle, end) = (20, 40, 50);
+    let (depth, aisle, end) = (20, 60, 50);
     let along_x = room.w() >= room.h();
     let (len, across) = if along_x {
         (room.w(), room.h())
