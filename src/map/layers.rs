@@ -487,6 +487,7 @@ mod tests {
         cfg.robot.radius_m = 0.25;
         cfg.map.inflation_margin_m = 0.04;
         cfg.map.proximity_band_m = 0.3;
+        cfg.map.frontier_min_cells = 3;
         Layers::new(grid, &cfg)
     }
 

@@ -267,7 +267,10 @@ mod tests {
             VoxelState::Occupied,
             "the floor layer does record hits"
         );
-        assert!(map.frontiers().iter().all(|s| s.cells.len() >= 3));
+        assert!(map
+            .frontiers()
+            .iter()
+            .all(|s| s.cells.len() >= cfg.map.frontier_min_cells));
         assert!(map.is_unknown(grid.index(Cell::new(0, 0))));
     }
 
