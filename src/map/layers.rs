@@ -573,7 +573,10 @@ mod tests {
                 min: [b.min[0], y as f32 * 0.1 + 0.03],
                 max: [b.max[0], y as f32 * 0.1 + 0.05],
             };
-            assert_eq!(l.grid.cell_at(b.min[0] as f64, b.min[1] as f64), Cell::new(x, y));
+            assert_eq!(
+                l.grid.cell_at(b.min[0] as f64, b.min[1] as f64),
+                Cell::new(x, y)
+            );
             set_with_box(&mut l, x, y, CellState::Obstacle, Some(b));
         }
         for idx in 0..l.grid.cells() {

@@ -298,14 +298,20 @@ mod tests {
         // (Farther on, rays graze the walls so flatly that misses erase their voxels: not tested.)
         for i in 0..14 {
             let x = 1.55 + 0.1 * i as f64;
-            assert!(map.is_obstacle(idx(x, 0.05)) && map.is_obstacle(idx(x, 0.75)), "x {x}");
+            assert!(
+                map.is_obstacle(idx(x, 0.05)) && map.is_obstacle(idx(x, 0.75)),
+                "x {x}"
+            );
             assert!(map.is_traversable(idx(x, 0.35)), "x {x}");
             assert!(map.is_traversable(idx(x, 0.45)), "x {x}");
             assert!(!map.is_traversable(idx(x, 0.25)) && !map.is_traversable(idx(x, 0.55)));
             // The nearest surface point is on a wall face, within the slack.
             let p = Point2::new(x, 0.3);
             let o = map.nearest_obstacle_point(p, 0.6).unwrap();
-            assert!((o.y - 0.02).abs() <= 0.0101 && (o.x - x).abs() < 0.06, "{o:?}");
+            assert!(
+                (o.y - 0.02).abs() <= 0.0101 && (o.x - x).abs() < 0.06,
+                "{o:?}"
+            );
         }
         let p = Point2::new(3.0, 0.395);
         assert!(map.nearest_obstacle_point(p, 0.36).is_none());
