@@ -1,11 +1,12 @@
 //! 2D layers derived from the voxels, kept up to date incrementally: column state, obstacle inflation,
 //! traversability, surface cells and frontier cells.
 
-use super::occupancy::{Occupancy, VoxelState};
+use super::occupancy::{ObstacleBox, Occupancy, VoxelState};
 use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
 use crate::Config;
 use nalgebra::Point2;
 use std::collections::VecDeque;
+use std::f64::consts::SQRT_2;
 use std::ops::Range;
 
 /// What the robot knows about one floor cell.
@@ -25,6 +26,11 @@ pub struct FrontierSegment {
     pub centroid: Point2<f64>,
     /// The member cell nearest the centroid (lowest index on ties): a reachable goal.
     pub anchor: Cell,
+}
+
+/// The voxel layers that can block the robot: `[band_min_m, robot.height_m]`.
+pub fn robot_band(grid: &GridSpec, cfg: &Config) -> Range<usize> {
+    grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m)
 }
 
 /// Offsets of the cells whose centres lie within `radius` of a cell's centre.
@@ -51,19 +57,24 @@ pub struct Layers {
     surface_band: Range<usize>,
     /// Known voxels a column's robot band needs to count as free.
     min_known: usize,
-    /// Cell offsets within the inflation radius (robot radius + margin) of a cell centre.
-    inflation_offsets: Vec<(i32, i32)>,
-    /// Cell offsets within the proximity radius (inflation radius + `map.proximity_band_m`).
-    proximity_offsets: Vec<(i32, i32)>,
+    /// Squared inflation radius (robot radius + margin).
+    inflation_radius2: f64,
+    /// Squared proximity radius (inflation radius + `map.proximity_band_m`).
+    proximity_radius2: f64,
+    /// Offsets of the cells that a box inside a cell can have within the proximity radius.
+    reach_offsets: Vec<(i32, i32)>,
     segment_max_m: f64,
     segment_min_cells: usize,
     state: Vec<CellState>,
     /// Cells the robot has stood on: free in 2D unless an obstacle is seen there.
     footprint: Vec<bool>,
     surface: Vec<bool>,
-    /// Number of Obstacle cells within the inflation radius of each cell.
+    /// Per Obstacle cell, the obstacle box its inflation and proximity counts were made with (so
+    /// that they can be taken back exactly); `None` for other cells.
+    applied_box: Vec<Option<ObstacleBox>>,
+    /// Number of obstacle boxes within the inflation radius of each cell's centre.
     inflation: Vec<u32>,
-    /// Number of Obstacle cells within the proximity radius of each cell.
+    /// Number of obstacle boxes within the proximity radius of each cell's centre.
     proximity: Vec<u32>,
     traversable: Vec<bool>,
     frontier: Vec<bool>,
@@ -73,26 +84,29 @@ impl Layers {
     /// All-unknown layers over `grid`.
     pub fn new(grid: GridSpec, cfg: &Config) -> Layers {
         let m = &cfg.map;
-        let robot_band = grid.layers_in(m.band_min_m, cfg.robot.height_m);
+        let robot_band = robot_band(&grid, cfg);
         let surface_band = grid.layers_in(m.band_min_m, m.band_max_m);
         let min_known =
             ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
         let radius = cfg.robot.radius_m + m.inflation_margin_m;
-        let inflation_offsets = disc_offsets(&grid, radius);
-        let proximity_offsets = disc_offsets(&grid, radius + m.proximity_band_m);
+        let proximity_radius = radius + m.proximity_band_m;
+        // A box lies within half a cell diagonal of its cell's centre.
+        let reach_offsets = disc_offsets(&grid, proximity_radius + 0.5 * SQRT_2 * grid.res);
         let n = grid.cells();
         Layers {
             grid,
             robot_band,
             surface_band,
             min_known,
-            inflation_offsets,
-            proximity_offsets,
+            inflation_radius2: radius * radius,
+            proximity_radius2: proximity_radius * proximity_radius,
+            reach_offsets,
             segment_max_m: m.frontier_segment_max_m,
             segment_min_cells: m.frontier_min_cells,
             state: vec![CellState::Unknown; n],
             footprint: vec![false; n],
             surface: vec![false; n],
+            applied_box: vec![None; n],
             inflation: vec![0; n],
             proximity: vec![0; n],
             traversable: vec![false; n],
@@ -109,6 +123,10 @@ impl Layers {
     pub fn surface(&self) -> &[bool] {
         &self.surface
     }
+    /// Where the obstacle of Obstacle cell `idx` is (`None` for other cells).
+    pub fn obstacle_box(&self, idx: usize) -> Option<ObstacleBox> {
+        self.applied_box[idx]
+    }
     /// Whether cell `idx` lies within the inflation radius of a known obstacle.
     pub fn is_inflated(&self, idx: usize) -> bool {
         self.inflation[idx] > 0
@@ -120,6 +138,12 @@ impl Layers {
     }
     pub fn frontier(&self) -> &[bool] {
         &self.frontier
+    }
+
+    /// The inflation and proximity counters, for tests comparing incremental and recomputed layers.
+    #[cfg(test)]
+    pub(super) fn counters(&self) -> (&[u32], &[u32]) {
+        (&self.inflation, &self.proximity)
     }
 
     /// The state and surface flag of one column, from its voxels and the footprint flag.
@@ -150,14 +174,32 @@ impl Layers {
         (state, surface)
     }
 
-    /// Recomputes the given columns (flat cell indices) and everything that depends on them.
-    pub fn update_columns(&mut self, occ: &Occupancy, columns: &[u32]) {
+    /// The box Obstacle cell `idx` should count with: its hits', or the whole cell if it has none
+    /// (which cannot happen while hits are what makes voxels occupied, but costs nothing to cover).
+    fn box_for(&self, occ: &Occupancy, idx: usize) -> Option<ObstacleBox> {
+        (self.state[idx] == CellState::Obstacle).then(|| {
+            let b = occ.obstacle_box(idx);
+            if b.is_empty() {
+                ObstacleBox::cell(&self.grid, self.grid.cell(idx))
+            } else {
+                b
+            }
+        })
+    }
+
+    /// Recomputes the given columns (flat cell indices, whose voxel states changed), moves the
+    /// inflation of the columns whose obstacle box grew, and updates everything that depends on them.
+    pub fn update_columns(&mut self, occ: &Occupancy, columns: &[u32], grown_boxes: &[u32]) {
         let mut changed = Vec::new();
         for &c in columns {
             let c = c as usize;
             let (state, surface) = self.column(occ, c);
             self.surface[c] = surface;
             self.set_state(c, state, &mut changed);
+        }
+        for &c in columns.iter().chain(grown_boxes) {
+            let c = c as usize;
+            self.apply_box(c, self.box_for(occ, c), &mut changed);
         }
         self.settle(changed);
     }
@@ -185,35 +227,53 @@ impl Layers {
         self.settle(changed);
     }
 
-    /// Sets a cell's state, updating inflation counters when its Obstacle status flips. Cells whose
-    /// traversability may have changed are pushed onto `changed`.
+    /// Sets a cell's state (the caller keeps its obstacle box in step with [`Self::apply_box`]).
+    /// Cells whose traversability may have changed are pushed onto `changed`.
     fn set_state(&mut self, idx: usize, new: CellState, changed: &mut Vec<usize>) {
-        let old = self.state[idx];
+        if self.state[idx] != new {
+            self.state[idx] = new;
+            changed.push(idx);
+        }
+    }
+
+    /// Makes `new` the obstacle box that cell `idx` counts with in the inflation and proximity
+    /// counters: takes back the old box's counts, if any, and adds the new one's.
+    fn apply_box(&mut self, idx: usize, new: Option<ObstacleBox>, changed: &mut Vec<usize>) {
+        let old = self.applied_box[idx];
         if old == new {
             return;
         }
-        self.state[idx] = new;
-        changed.push(idx);
-        let was = old == CellState::Obstacle;
-        let is = new == CellState::Obstacle;
-        if was == is {
-            return;
+        if let Some(b) = old {
+            self.count_box(idx, &b, false, changed);
         }
+        if let Some(b) = new {
+            self.count_box(idx, &b, true, changed);
+        }
+        self.applied_box[idx] = new;
+    }
+
+    /// Adds (or removes) box `b` of cell `idx` to the counters of the cells whose centres lie within
+    /// the inflation and proximity radii of it. Cells whose inflation flips are pushed onto `changed`.
+    fn count_box(&mut self, idx: usize, b: &ObstacleBox, add: bool, changed: &mut Vec<usize>) {
         let cell = self.grid.cell(idx);
-        for &(dx, dy) in &self.proximity_offsets {
-            if let Some(n) = self.grid.checked_index(Cell::new(cell.x + dx, cell.y + dy)) {
-                if is {
-                    self.proximity[n] += 1;
-                } else {
-                    self.proximity[n] -= 1;
-                }
-            }
-        }
-        for &(dx, dy) in &self.inflation_offsets {
-            let Some(n) = self.grid.checked_index(Cell::new(cell.x + dx, cell.y + dy)) else {
+        for &(dx, dy) in &self.reach_offsets {
+            let nc = Cell::new(cell.x + dx, cell.y + dy);
+            let Some(n) = self.grid.checked_index(nc) else {
                 continue;
             };
-            if is {
+            let d2 = b.distance_squared(self.grid.center(nc));
+            if d2 > self.proximity_radius2 {
+                continue;
+            }
+            if add {
+                self.proximity[n] += 1;
+            } else {
+                self.proximity[n] -= 1;
+            }
+            if d2 > self.inflation_radius2 {
+                continue;
+            }
+            if add {
                 self.inflation[n] += 1;
                 if self.inflation[n] == 1 {
                     changed.push(n);
@@ -264,17 +324,22 @@ impl Layers {
         }
     }
 
-    /// Number of Obstacle cells at `offsets` from cell `idx`.
-    fn obstacles_within(&self, idx: usize, offsets: &[(i32, i32)]) -> u32 {
+    /// Numbers of obstacle boxes within the inflation and the proximity radius of cell `idx`'s centre.
+    fn boxes_within(&self, idx: usize) -> (u32, u32) {
         let c = self.grid.cell(idx);
-        offsets
-            .iter()
-            .filter(|&&(dx, dy)| {
-                self.grid
-                    .checked_index(Cell::new(c.x + dx, c.y + dy))
-                    .is_some_and(|o| self.state[o] == CellState::Obstacle)
-            })
-            .count() as u32
+        let centre = self.grid.center(c);
+        let (mut inflation, mut proximity) = (0, 0);
+        for &(dx, dy) in &self.reach_offsets {
+            let Some(o) = self.grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                continue;
+            };
+            if let Some(b) = self.applied_box[o] {
+                let d2 = b.distance_squared(centre);
+                inflation += (d2 <= self.inflation_radius2) as u32;
+                proximity += (d2 <= self.proximity_radius2) as u32;
+            }
+        }
+        (inflation, proximity)
     }
 
     /// Recomputes every layer from the voxels and footprint flags, without the incremental machinery.
@@ -285,9 +350,15 @@ impl Layers {
             self.state[idx] = state;
             self.surface[idx] = surface;
         }
+        // Each cell gathers the obstacle boxes near it (not the boxes scattering counts, as the
+        // incremental path does), so that this is an independent check of it.
         for idx in 0..n {
-            self.inflation[idx] = self.obstacles_within(idx, &self.inflation_offsets);
-            self.proximity[idx] = self.obstacles_within(idx, &self.proximity_offsets);
+            self.applied_box[idx] = self.box_for(occ, idx);
+        }
+        for idx in 0..n {
+            let (inflation, proximity) = self.boxes_within(idx);
+            self.inflation[idx] = inflation;
+            self.proximity[idx] = proximity;
         }
         for idx in 0..n {
             self.traversable[idx] = self.is_traversable_now(idx);
@@ -411,34 +482,115 @@ mod tests {
             ny,
             nz: 18,
         };
-        Layers::new(grid, &Config::default())
+        // Fixed here so that the known answers below do not move with the defaults.
+        let mut cfg = Config::default();
+        cfg.robot.radius_m = 0.25;
+        cfg.map.inflation_margin_m = 0.04;
+        cfg.map.proximity_band_m = 0.3;
+        cfg.map.frontier_min_cells = 3;
+        Layers::new(grid, &cfg)
     }
 
-    fn set(l: &mut Layers, x: i32, y: i32, s: CellState) {
+    /// Sets cell `(x, y)`'s state; an Obstacle gets `b` as its box, else the point at the cell centre.
+    fn set_with_box(l: &mut Layers, x: i32, y: i32, s: CellState, b: Option<ObstacleBox>) {
         let mut changed = Vec::new();
-        let idx = l.grid.index(Cell::new(x, y));
+        let c = Cell::new(x, y);
+        let idx = l.grid.index(c);
         l.set_state(idx, s, &mut changed);
+        let centre = l.grid.center(c);
+        let point = ObstacleBox {
+            min: [centre.x as f32, centre.y as f32],
+            max: [centre.x as f32, centre.y as f32],
+        };
+        let b = (s == CellState::Obstacle).then(|| b.unwrap_or(point));
+        l.apply_box(idx, b, &mut changed);
         l.settle(changed);
     }
 
-    #[test]
-    fn inflation_blocks_cells_within_robot_radius_plus_margin() {
-        let mut l = layers(21, 21);
+    fn set(l: &mut Layers, x: i32, y: i32, s: CellState) {
+        set_with_box(l, x, y, s, None);
+    }
+
+    fn all_free(nx: usize, ny: usize) -> Layers {
+        let mut l = layers(nx, ny);
         for idx in 0..l.grid.cells() {
             let c = l.grid.cell(idx);
             set(&mut l, c.x, c.y, CellState::Free);
         }
         assert!(l.traversable.iter().all(|&t| t));
+        l
+    }
+
+    #[test]
+    fn inflation_blocks_cells_within_robot_radius_plus_margin() {
+        let mut l = all_free(21, 21);
         set(&mut l, 10, 10, CellState::Obstacle);
-        // Radius 0.25 + 0.08 = 0.33 m: 3 cells straight (0.3) and (2, 2) diagonal (0.283) are blocked;
-        // 4 cells straight (0.4) and (3, 1) (0.316) blocked, (3, 2) (0.361) free.
+        // An obstacle at the centre of cell (10, 10), radius 0.25 + 0.04 = 0.29 m: (2, 2) diagonal
+        // (0.283) and (2, 1) (0.224) are blocked; 3 cells straight (0.3) and (3, 1) (0.316) are free.
         let t = |dx: i32, dy: i32| l.traversable[l.grid.index(Cell::new(10 + dx, 10 + dy))];
-        assert!(!t(0, 0) && !t(3, 0) && !t(0, -3) && !t(2, 2) && !t(3, 1));
-        assert!(t(4, 0) && t(3, 2) && t(-2, 3));
+        assert!(!t(0, 0) && !t(2, 0) && !t(0, -2) && !t(2, 2) && !t(-2, 1));
+        assert!(t(3, 0) && t(0, -3) && t(3, 1) && t(-2, 3));
+        // Proximity reaches 0.29 + 0.3 = 0.59 m: (5, 2) (0.539) is near; (6, 0) (0.6) and (4, 5) (0.640)
+        // are not.
+        let near = |dx: i32, dy: i32| l.is_near_obstacle(l.grid.index(Cell::new(10 + dx, 10 + dy)));
+        assert!(near(5, 2) && near(0, 0) && !near(6, 0) && !near(4, 5));
         // Removing the obstacle frees everything again.
         set(&mut l, 10, 10, CellState::Free);
         assert!(l.traversable.iter().all(|&t| t));
         assert!(l.inflation.iter().all(|&n| n == 0));
+        assert!(l.proximity.iter().all(|&n| n == 0));
+    }
+
+    #[test]
+    fn inflation_measures_to_the_obstacle_box_and_follows_it_when_it_grows() {
+        let mut l = all_free(21, 21);
+        // A wall face at x = 1.0, the left edge of cell (10, 10) (x 1.0–1.1): the box is the thin
+        // strip x 1.0–1.01. Cell centres at x = 0.75 (0.25 m from it) are blocked, x = 0.65 (0.35 m)
+        // free, where the cell centre rule (0.4 m and 0.3 m from x = 1.05) would have passed 0.75.
+        let wall = |x0: f32, x1: f32| ObstacleBox {
+            min: [x0, 1.0],
+            max: [x1, 1.1],
+        };
+        set_with_box(&mut l, 10, 10, CellState::Obstacle, Some(wall(1.0, 1.01)));
+        let t = |l: &Layers, x: i32, y: i32| l.traversable[l.grid.index(Cell::new(x, y))];
+        assert!(!t(&l, 7, 10) && t(&l, 6, 10));
+        // Right side: x = 1.35 is 0.34 m from x = 1.01, free; x = 1.25 (0.24 m) blocked.
+        assert!(t(&l, 13, 10) && !t(&l, 12, 10));
+        // The box grows to x 1.0–1.1: the right side's inflation follows.
+        let mut changed = Vec::new();
+        let idx = l.grid.index(Cell::new(10, 10));
+        l.apply_box(idx, Some(wall(1.0, 1.1)), &mut changed);
+        l.settle(changed);
+        assert!(!t(&l, 13, 10) && t(&l, 14, 10) && !t(&l, 7, 10) && t(&l, 6, 10));
+        // Taking the obstacle away takes back exactly what the latest box added.
+        set(&mut l, 10, 10, CellState::Free);
+        assert!(l.traversable.iter().all(|&t| t));
+        assert!(l.inflation.iter().chain(&l.proximity).all(|&n| n == 0));
+        // The counts equal a direct check of every cell against every box.
+        let boxes = [(3, 4, wall(0.3, 0.38)), (15, 15, wall(1.5, 1.6))];
+        for &(x, y, b) in &boxes {
+            let b = ObstacleBox {
+                min: [b.min[0], y as f32 * 0.1 + 0.03],
+                max: [b.max[0], y as f32 * 0.1 + 0.05],
+            };
+            assert_eq!(
+                l.grid.cell_at(b.min[0] as f64, b.min[1] as f64),
+                Cell::new(x, y)
+            );
+            set_with_box(&mut l, x, y, CellState::Obstacle, Some(b));
+        }
+        for idx in 0..l.grid.cells() {
+            let p = l.grid.center(l.grid.cell(idx));
+            let (mut inflation, mut proximity) = (0, 0);
+            for o in 0..l.grid.cells() {
+                if let Some(b) = l.obstacle_box(o) {
+                    let d = b.distance_squared(p).sqrt();
+                    inflation += (d <= 0.29) as u32;
+                    proximity += (d <= 0.59) as u32;
+                }
+            }
+            assert_eq!((l.inflation[idx], l.proximity[idx]), (inflation, proximity));
+        }
     }
 
     #[test]

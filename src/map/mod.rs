@@ -4,11 +4,12 @@ pub mod layers;
 pub mod occupancy;
 
 pub use layers::{CellState, FrontierSegment, Layers};
-pub use occupancy::{LogOdds, Occupancy, VoxelState};
+pub use occupancy::{LogOdds, ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
 
-use crate::grid::GridSpec;
+use crate::grid::{Cell, GridSpec};
 use crate::sensor::DepthFrame;
 use crate::Config;
+use nalgebra::Point2;
 
 /// What one frame changed, for the simulator's incremental metrics.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -30,7 +31,11 @@ impl Map {
     /// An all-unknown map over `grid`.
     pub fn new(grid: GridSpec, cfg: &Config) -> Map {
         Map {
-            occupancy: Occupancy::new(grid, LogOdds::from_config(&cfg.map)),
+            occupancy: Occupancy::new(
+                grid,
+                LogOdds::from_config(&cfg.map),
+                layers::robot_band(&grid, cfg),
+            ),
             layers: Layers::new(grid, cfg),
         }
     }
@@ -39,7 +44,7 @@ impl Map {
     pub fn integrate(&mut self, frame: &DepthFrame) -> FrameUpdate {
         let up = self.occupancy.integrate(frame);
         self.layers
-            .update_columns(&self.occupancy, &up.changed_columns);
+            .update_columns(&self.occupancy, &up.changed_columns, &up.grown_boxes);
         FrameUpdate {
             newly_known: up.newly_known,
             touched_columns: up.changed_columns.len(),
@@ -82,12 +87,44 @@ impl Map {
         self.cell_state(idx) == CellState::Obstacle
     }
 
-    /// Within the inflation radius (robot radius + margin) of a known obstacle cell.
+    /// Where the obstacle of Obstacle cell `idx` lies (see [`ObstacleBox`]); `None` for other cells.
+    pub fn obstacle_box(&self, idx: usize) -> Option<ObstacleBox> {
+        self.layers.obstacle_box(idx)
+    }
+
+    /// The known obstacle surface point nearest `p` within `max_m` (the nearest point of the nearest
+    /// obstacle box; ties: the first cell in row order), or `None`.
+    pub fn nearest_obstacle_point(&self, p: Point2<f64>, max_m: f64) -> Option<Point2<f64>> {
+        let grid = self.grid();
+        let c = grid.cell_at(p.x, p.y);
+        // A box lies inside its cell, so cells one beyond `max_m` can still hold a nearer one.
+        let r = (max_m / grid.res).ceil() as i32 + 1;
+        let mut best = max_m * max_m;
+        let mut found = None;
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let Some(i) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                    continue;
+                };
+                if let Some(b) = self.obstacle_box(i) {
+                    let o = b.nearest_point(p);
+                    let d2 = (o - p).norm_squared();
+                    if d2 < best {
+                        best = d2;
+                        found = Some(o);
+                    }
+                }
+            }
+        }
+        found
+    }
+
+    /// Within the inflation radius (robot radius + margin) of a known obstacle's box.
     pub fn is_inflated(&self, idx: usize) -> bool {
         self.layers.is_inflated(idx)
     }
 
-    /// Within `map.proximity_band_m` of the inflation radius of a known obstacle.
+    /// Within `map.proximity_band_m` of the inflation radius of a known obstacle's box.
     pub fn is_near_obstacle(&self, idx: usize) -> bool {
         self.layers.is_near_obstacle(idx)
     }
@@ -184,9 +221,12 @@ mod tests {
             assert_eq!(scratch.surface(), map.layers.surface());
             assert_eq!(scratch.traversable(), map.layers.traversable());
             assert_eq!(scratch.frontier(), map.layers.frontier());
+            assert_eq!(scratch.counters(), map.layers.counters());
             for i in 0..grid.cells() {
                 assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
                 assert_eq!(scratch.is_near_obstacle(i), map.is_near_obstacle(i));
+                assert_eq!(scratch.obstacle_box(i), map.obstacle_box(i));
+                assert_eq!(map.obstacle_box(i).is_some(), map.is_obstacle(i));
             }
         }
         // The room got mapped: most of the wall at x = 0 is obstacle, most of the wall at x = 8 is
@@ -227,7 +267,54 @@ mod tests {
             VoxelState::Occupied,
             "the floor layer does record hits"
         );
-        assert!(map.frontiers().iter().all(|s| s.cells.len() >= 3));
+        assert!(map
+            .frontiers()
+            .iter()
+            .all(|s| s.cells.len() >= cfg.map.frontier_min_cells));
         assert!(map.is_unknown(grid.index(Cell::new(0, 0))));
+    }
+
+    #[test]
+    fn a_075_m_corridor_stays_passable_and_clearance_is_measured_to_the_walls() {
+        // Floor plus two walls 0.75 m apart, faces at y = 0.02 and y = 0.77 (not on cell edges).
+        let cfg = Config::default();
+        let grid = GridSpec::covering(Point2::new(-1.0, -1.0), Point2::new(5.0, 2.0), 1.8, 0.1);
+        let mut mesh = crate::scene::TriMesh::default();
+        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -1.0, -0.1], [5.0, 2.0, 0.0]);
+        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -0.1, 0.0], [5.0, 0.02, 2.0]);
+        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, 0.77, 0.0], [5.0, 0.9, 2.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut map = Map::new(grid, &cfg);
+        for x in [0.0, 0.5, 1.0, 1.5] {
+            map.integrate(&cam.capture(&bvh, Pose2::new(x, 0.395, 0.0)));
+        }
+        // The wall faces lie in the cell rows at y = 0.05 and 0.75. Cell centres at y = 0.35 and 0.45
+        // are 0.33 and 0.32 m from the faces, beyond the inflation radius (0.29 m) plus the box slack;
+        // measured to the wall cells' centres they would be 0.3 m away.
+        let idx = |x: f64, y: f64| grid.index(grid.cell_at(x, y));
+        let radius = cfg.robot.radius_m + cfg.map.inflation_margin_m;
+        assert!(radius + (OBSTACLE_BOX_SLACK_M as f64) < 0.31);
+        // (Farther on, rays graze the walls so flatly that misses erase their voxels: not tested.)
+        for i in 0..14 {
+            let x = 1.55 + 0.1 * i as f64;
+            assert!(
+                map.is_obstacle(idx(x, 0.05)) && map.is_obstacle(idx(x, 0.75)),
+                "x {x}"
+            );
+            assert!(map.is_traversable(idx(x, 0.35)), "x {x}");
+            assert!(map.is_traversable(idx(x, 0.45)), "x {x}");
+            assert!(!map.is_traversable(idx(x, 0.25)) && !map.is_traversable(idx(x, 0.55)));
+            // The nearest surface point is on a wall face, within the slack.
+            let p = Point2::new(x, 0.3);
+            let o = map.nearest_obstacle_point(p, 0.6).unwrap();
+            assert!(
+                (o.y - 0.02).abs() <= 0.0101 && (o.x - x).abs() < 0.06,
+                "{o:?}"
+            );
+        }
+        let p = Point2::new(3.0, 0.395);
+        assert!(map.nearest_obstacle_point(p, 0.36).is_none());
+        assert!(map.nearest_obstacle_point(p, 0.4).is_some());
     }
 }

@@ -3,7 +3,8 @@
 use crate::config::MapConfig;
 use crate::grid::{Cell, GridSpec};
 use crate::sensor::DepthFrame;
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Point2, Point3, Vector3};
+use std::ops::Range;
 
 /// What is known about one voxel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,6 +39,72 @@ impl LogOdds {
     }
 }
 
+/// How far an obstacle box reaches beyond each hit point that grew it, metres. Hits inside the box
+/// leave it alone, so a box changes only when a hit lands more than this outside it: the 2D layers
+/// redo a column's inflation a few times rather than on every new hit, and the box still contains
+/// every hit (it errs toward the robot by at most this much).
+pub const OBSTACLE_BOX_SLACK_M: f32 = 0.01;
+
+/// Where an obstacle column's obstacle actually is: an axis-aligned 2D box around the ray hit points
+/// that landed in the column's robot-band voxels, grown by [`OBSTACLE_BOX_SLACK_M`] and kept inside
+/// the cell. Hit points lie on the true surface, so distances to the box are accurate to about a
+/// centimetre instead of the ±7 cm of the cell centre. A box rather than one point (centroid,
+/// nearest hit): it never lies farther from the robot than a hit it has seen, so clearances to it
+/// are never overestimated (a corner column's centroid would lie inside the solid), and for walls
+/// along the grid axes, the common case in floor plans, it is as thin as the slack.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObstacleBox {
+    pub min: [f32; 2],
+    pub max: [f32; 2],
+}
+
+impl ObstacleBox {
+    /// Contains nothing; grows to the first point added.
+    pub const EMPTY: ObstacleBox = ObstacleBox {
+        min: [f32::INFINITY; 2],
+        max: [f32::NEG_INFINITY; 2],
+    };
+
+    /// The whole square of cell `c`: where an obstacle column with no recorded hit may be.
+    pub fn cell(grid: &GridSpec, c: Cell) -> ObstacleBox {
+        let (lo, hi) = cell_square(grid, c);
+        ObstacleBox { min: lo, max: hi }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        !(self.min[0] <= self.max[0] && self.min[1] <= self.max[1])
+    }
+
+    #[inline(always)]
+    fn contains(&self, x: f32, y: f32) -> bool {
+        x >= self.min[0] && x <= self.max[0] && y >= self.min[1] && y <= self.max[1]
+    }
+
+    /// The point of the (non-empty) box nearest `p`.
+    pub fn nearest_point(&self, p: Point2<f64>) -> Point2<f64> {
+        Point2::new(
+            p.x.clamp(self.min[0] as f64, self.max[0] as f64),
+            p.y.clamp(self.min[1] as f64, self.max[1] as f64),
+        )
+    }
+
+    /// Squared distance from `p` to the (non-empty) box; 0 inside.
+    #[inline]
+    pub fn distance_squared(&self, p: Point2<f64>) -> f64 {
+        (self.nearest_point(p) - p).norm_squared()
+    }
+}
+
+/// The corners of cell `c`'s square, as f32 (the precision of [`ObstacleBox`]).
+fn cell_square(grid: &GridSpec, c: Cell) -> ([f32; 2], [f32; 2]) {
+    let centre = grid.center(c);
+    let h = 0.5 * grid.res;
+    (
+        [(centre.x - h) as f32, (centre.y - h) as f32],
+        [(centre.x + h) as f32, (centre.y + h) as f32],
+    )
+}
+
 /// What one frame changed.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct OccupancyUpdate {
@@ -45,6 +112,8 @@ pub struct OccupancyUpdate {
     pub newly_known: Vec<u32>,
     /// Cells (flat 2D indices) with at least one voxel whose [`VoxelState`] changed, ascending.
     pub changed_columns: Vec<u32>,
+    /// Cells (flat 2D indices) whose [`ObstacleBox`] grew, ascending.
+    pub grown_boxes: Vec<u32>,
 }
 
 /// The voxel grid.
@@ -58,22 +127,34 @@ pub struct Occupancy {
     stamp: Vec<u32>,
     /// Number of the frame that last listed each column in `changed_columns`.
     column_stamp: Vec<u32>,
+    /// Voxel layers whose hits say where a column's obstacle is: those that can block the robot.
+    obstacle_layers: Range<usize>,
+    /// Per column, the box around the hits in `obstacle_layers` (see [`ObstacleBox`]).
+    obstacle_box: Vec<ObstacleBox>,
     frame: u32,
     known: usize,
 }
 
 impl Occupancy {
-    /// An all-unknown grid.
-    pub fn new(grid: GridSpec, rule: LogOdds) -> Occupancy {
+    /// An all-unknown grid. Hits in `obstacle_layers` (the layers that can block the robot) are
+    /// kept per column as [`ObstacleBox`]es.
+    pub fn new(grid: GridSpec, rule: LogOdds, obstacle_layers: Range<usize>) -> Occupancy {
         Occupancy {
             grid,
             rule,
             log_odds: vec![0.0; grid.voxels()],
             stamp: vec![0; grid.voxels()],
             column_stamp: vec![0; grid.cells()],
+            obstacle_layers,
+            obstacle_box: vec![ObstacleBox::EMPTY; grid.cells()],
             frame: 0,
             known: 0,
         }
+    }
+
+    /// The box around every hit so far in column `idx`'s obstacle layers (empty if none).
+    pub fn obstacle_box(&self, idx: usize) -> ObstacleBox {
+        self.obstacle_box[idx]
     }
 
     pub fn grid(&self) -> &GridSpec {
@@ -121,6 +202,8 @@ impl Occupancy {
             stamp: &mut self.stamp,
             log_odds: &mut self.log_odds,
             column_stamp: &mut self.column_stamp,
+            obstacle_box: &mut self.obstacle_box,
+            grid,
             frame: self.frame,
             rule: self.rule,
             layer_len: grid.cells(),
@@ -128,12 +211,18 @@ impl Occupancy {
             update: OccupancyUpdate::default(),
         };
         let origin = frame.origin.cast::<f64>();
-        // Pass 1: hits.
+        // Flat voxel indices are layer-major, so the obstacle layers are one index range.
+        let obstacle_voxels =
+            self.obstacle_layers.start * grid.cells()..self.obstacle_layers.end * grid.cells();
+        // Pass 1: hits, in ray order (which makes the obstacle boxes deterministic).
         for (dir, &range) in frame.dirs.iter().zip(&frame.range) {
             if range.is_finite() {
                 let end = origin + dir.cast::<f64>() * range as f64;
                 if let Some(v) = grid.voxel_of(end) {
                     up.apply(v, up.rule.hit);
+                    if obstacle_voxels.contains(&v) {
+                        up.record_hit(v, end.x as f32, end.y as f32);
+                    }
                 }
             }
         }
@@ -156,6 +245,8 @@ impl Occupancy {
         let mut update = up.update;
         update.newly_known.sort_unstable();
         update.changed_columns.sort_unstable();
+        update.grown_boxes.sort_unstable();
+        update.grown_boxes.dedup();
         update
     }
 }
@@ -165,6 +256,8 @@ struct Updater<'a> {
     stamp: &'a mut [u32],
     log_odds: &'a mut [f32],
     column_stamp: &'a mut [u32],
+    obstacle_box: &'a mut [ObstacleBox],
+    grid: GridSpec,
     frame: u32,
     rule: LogOdds,
     layer_len: usize,
@@ -194,6 +287,32 @@ impl Updater<'_> {
         };
         if changed {
             self.column_changed(v);
+        }
+    }
+
+    /// Adds hit point `(x, y)` in voxel `v` to its column's obstacle box.
+    #[inline(always)]
+    fn record_hit(&mut self, v: usize, x: f32, y: f32) {
+        let column = v % self.layer_len;
+        if !self.obstacle_box[column].contains(x, y) {
+            self.grow_box(column, x, y);
+        }
+    }
+
+    /// Grows a column's box to take `(x, y)` plus the slack, clipped to the cell (hits lie inside it)
+    /// but never so far as to leave the point out.
+    #[cold]
+    fn grow_box(&mut self, column: usize, x: f32, y: f32) {
+        let (lo, hi) = cell_square(&self.grid, self.grid.cell(column));
+        let s = OBSTACLE_BOX_SLACK_M;
+        let b = &mut self.obstacle_box[column];
+        let old = *b;
+        b.min[0] = b.min[0].min((x - s).max(lo[0]).min(x));
+        b.min[1] = b.min[1].min((y - s).max(lo[1]).min(y));
+        b.max[0] = b.max[0].max((x + s).min(hi[0]).max(x));
+        b.max[1] = b.max[1].max((y + s).min(hi[1]).max(y));
+        if *b != old {
+            self.update.grown_boxes.push(column as u32);
         }
     }
 
@@ -323,6 +442,18 @@ mod tests {
         LogOdds::from_config(&Config::default().map)
     }
 
+    /// Obstacle layers 1..12: hits at 0.1–1.2 m count.
+    fn occupancy(g: GridSpec) -> Occupancy {
+        Occupancy::new(g, rule(), 1..12)
+    }
+
+    fn assert_box(b: ObstacleBox, min: [f32; 2], max: [f32; 2]) {
+        for a in 0..2 {
+            assert!((b.min[a] - min[a]).abs() < 1e-5, "{b:?} vs {min:?} {max:?}");
+            assert!((b.max[a] - max[a]).abs() < 1e-5, "{b:?} vs {min:?} {max:?}");
+        }
+    }
+
     /// A frame of the given rays from one origin (directions normalised here).
     fn frame(origin: [f32; 3], rays: &[([f32; 3], f32)]) -> DepthFrame {
         DepthFrame {
@@ -399,7 +530,7 @@ mod tests {
     #[test]
     fn hit_and_misses_along_one_ray() {
         let g = grid();
-        let mut occ = Occupancy::new(g, rule());
+        let mut occ = occupancy(g);
         // From (0.05, 0.05, 0.55) along +x, hitting at 1 m: x 0.05 → 1.05.
         let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], 1.0)]));
         let v = |x: f64| g.voxel_of(Point3::new(x, 0.05, 0.55)).unwrap();
@@ -426,13 +557,13 @@ mod tests {
         let beyond = g.voxel_of(Point3::new(1.55, 0.05, 0.55)).unwrap();
         let through = g.voxel_of(Point3::new(0.55, 0.05, 0.55)).unwrap();
         for rays in [[a, b], [b, a]] {
-            let mut occ = Occupancy::new(g, rule());
+            let mut occ = occupancy(g);
             occ.integrate(&frame([0.05, 0.05, 0.55], &rays));
             assert_eq!(occ.log_odds(target), 0.85, "hit wins over miss");
             assert_eq!(occ.log_odds(beyond), -0.4);
             assert_eq!(occ.log_odds(through), -0.4, "two rays, one miss");
             // Same ray twice in one frame: still one hit.
-            let mut occ = Occupancy::new(g, rule());
+            let mut occ = occupancy(g);
             occ.integrate(&frame([0.05, 0.05, 0.55], &[a, a]));
             assert_eq!(occ.log_odds(target), 0.85);
         }
@@ -441,7 +572,7 @@ mod tests {
     #[test]
     fn log_odds_clamp_and_flip() {
         let g = grid();
-        let mut occ = Occupancy::new(g, rule());
+        let mut occ = occupancy(g);
         let target = g.voxel_of(Point3::new(1.05, 0.05, 0.55)).unwrap();
         let hit = frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], 1.0)]);
         let pass = frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], 2.0)]);
@@ -468,7 +599,7 @@ mod tests {
     #[test]
     fn invalid_rays_are_skipped_and_no_hit_rays_reach_max_range() {
         let g = grid();
-        let mut occ = Occupancy::new(g, rule());
+        let mut occ = occupancy(g);
         let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], f32::NAN)]));
         assert!(up.newly_known.is_empty());
         assert_eq!(occ.known_voxels(), 0);
@@ -482,5 +613,86 @@ mod tests {
             .newly_known
             .iter()
             .all(|&v| occ.state(v as usize) == VoxelState::Free));
+    }
+
+    #[test]
+    fn obstacle_boxes_hold_the_hits_with_slack_clipped_to_the_cell() {
+        let g = grid();
+        let mut occ = occupancy(g);
+        // Hit at (1.05, 0.05, 0.55): column (20, 20), cell square x 1.0–1.1, y 0.0–0.1.
+        let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], 1.0)]));
+        let column = g.index(g.cell_at(1.05, 0.05));
+        assert_eq!(up.grown_boxes, vec![column as u32]);
+        assert_box(occ.obstacle_box(column), [1.04, 0.04], [1.06, 0.06]);
+        // A hit inside the box changes nothing.
+        let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[([1.0, 0.0, 0.0], 1.005)]));
+        assert!(up.grown_boxes.is_empty());
+        // A hit outside grows it by the slack around that hit only, clipped to the cell at y = 0.1.
+        let dir = [1.04f32, 0.045, 0.0];
+        let range = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
+        let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[(dir, range)]));
+        assert_eq!(up.grown_boxes, vec![column as u32]);
+        assert_box(occ.obstacle_box(column), [1.04, 0.04], [1.1, 0.1]);
+        // Floor hits (z < 0.1) and hits above the robot (z > 1.2) leave no box.
+        let mut occ = occupancy(g);
+        let down = ([1.0f32, 0.0, -0.5], 0.5f32 * 5f32.sqrt());
+        let up_ray = ([1.0f32, 0.0, 1.0], 2f32.sqrt());
+        let up = occ.integrate(&frame([0.05, 0.05, 0.55], &[down, up_ray]));
+        assert!(up.grown_boxes.is_empty());
+        assert!((0..g.cells()).all(|i| occ.obstacle_box(i).is_empty()));
+        assert!(ObstacleBox::EMPTY.is_empty());
+    }
+
+    #[test]
+    fn obstacle_boxes_contain_every_robot_band_hit_and_occupied_columns_have_one() {
+        use crate::sensor::raycast::testing::furnished_room;
+        use crate::sensor::{DepthCamera, MeshBvh};
+        let cfg = Config::default();
+        let g = GridSpec::covering(Point2::new(-0.5, -0.5), Point2::new(8.5, 8.5), 1.8, 0.1);
+        let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut occ = occupancy(g);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut hits = Vec::new();
+        for _ in 0..15 {
+            let pose = crate::Pose2::new(
+                rng.random_range(0.5..7.5),
+                rng.random_range(0.5..7.5),
+                rng.random_range(-3.2..3.2),
+            );
+            let f = cam.capture(&bvh, pose);
+            let o = f.origin.cast::<f64>();
+            for (d, &r) in f.dirs.iter().zip(&f.range) {
+                if r.is_finite() {
+                    hits.push(o + d.cast::<f64>() * r as f64);
+                }
+            }
+            occ.integrate(&f);
+        }
+        let mut in_band = 0;
+        for p in &hits {
+            // Ceiling hits lie above the grid.
+            let Some(v) = g.voxel_of(*p) else {
+                continue;
+            };
+            let (column, iz) = g.voxel_parts(v);
+            if (1..12).contains(&iz) {
+                in_band += 1;
+                let b = occ.obstacle_box(column);
+                // Contains the hit, to f32 precision.
+                let d = b.distance_squared(Point2::new(p.x, p.y)).sqrt();
+                assert!(d < 1e-6, "{p:?} {b:?}");
+                let (lo, hi) = cell_square(&g, g.cell(column));
+                assert!(b.min[0] >= lo[0] && b.min[1] >= lo[1]);
+                assert!(b.max[0] <= hi[0] && b.max[1] <= hi[1]);
+            }
+        }
+        assert!(in_band > 10_000, "{in_band}");
+        for v in 0..g.voxels() {
+            let (column, iz) = g.voxel_parts(v);
+            if (1..12).contains(&iz) && occ.state(v) == VoxelState::Occupied {
+                assert!(!occ.obstacle_box(column).is_empty());
+            }
+        }
     }
 }

@@ -3,7 +3,6 @@
 
 use super::robot::Command;
 use crate::config::Config;
-use crate::grid::Cell;
 use crate::map::Map;
 use crate::plan::Action;
 use crate::util::wrap_angle;
@@ -51,8 +50,11 @@ pub struct MotionExecutor {
     lookahead: f64,
     goal_tolerance: f64,
     slow_clearance: f64,
-    /// Clearance (to obstacle cell centres) at which a cell is traversable again.
+    /// Clearance (to obstacle surfaces) at which the robot's own spot is out of every obstacle's
+    /// inflation again: the inflation radius.
     free_clearance: f64,
+    /// Clearance under which the guard refuses to move closer to an obstacle.
+    guard_clearance: f64,
 }
 
 /// Gain of the proportional heading controller, 1/s.
@@ -63,6 +65,12 @@ const ALIGNED_RAD: f64 = 0.1;
 const ESCAPE_STEPS: u32 = 40;
 /// Speed while backing off, as a fraction of the maximum.
 const ESCAPE_SPEED_FRACTION: f64 = 0.2;
+/// The guard stops the robot from driving closer to a known obstacle surface than the robot radius
+/// plus this, metres. Clearances are measured to the obstacle boxes (the hits, give or take 1 cm,
+/// never farther than a seen surface), so this only covers surface between hits and path following
+/// between cell centres, which comes a little closer to obstacles than the centres themselves (the
+/// inflation radius); capped at `map.inflation_margin_m`, or paths through doors would get refused.
+const GUARD_MARGIN_M: f64 = 0.02;
 /// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
 const MIN_SPEED_FRACTION: f64 = 0.3;
 
@@ -79,6 +87,7 @@ impl MotionExecutor {
             goal_tolerance: cfg.motion.goal_tolerance_m,
             slow_clearance: cfg.motion.slow_clearance_m,
             free_clearance: cfg.robot.radius_m + cfg.map.inflation_margin_m,
+            guard_clearance: cfg.robot.radius_m + GUARD_MARGIN_M.min(cfg.map.inflation_margin_m),
         }
     }
 
@@ -169,8 +178,7 @@ impl MotionExecutor {
                 let v = self.max_speed * err.cos().max(0.0) * slow * (to_goal / 0.5).min(1.0);
                 let next = super::robot::integrate(pose, v, w, self.dt);
                 let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
-                let limit = self.radius + 0.5 * map.grid().res;
-                if next_clearance < limit && next_clearance < clearance {
+                if next_clearance < self.guard_clearance && next_clearance < clearance {
                     // Moving on would bring the disc closer to a known obstacle than is safe. Turn in
                     // place toward the path first; if already aligned, back off and re-plan.
                     if err.abs() > ALIGNED_RAD {
@@ -209,33 +217,15 @@ impl MotionExecutor {
     }
 }
 
-/// Distance from `p` to the nearest known obstacle cell centre, searched within `max_m`
+/// Distance from `p` to the nearest known obstacle surface point, searched within `max_m`
 /// (returns `max_m` when none is nearer).
 pub fn obstacle_clearance(map: &Map, p: Point2<f64>, max_m: f64) -> f64 {
     nearest_obstacle(map, p, max_m).map_or(max_m, |o| (o - p).norm())
 }
 
-/// Centre of the known obstacle cell nearest to `p` within `max_m` (ties: the first in row order).
+/// The known obstacle surface point nearest to `p` within `max_m` (see
+/// [`Map::nearest_obstacle_point`]: measured to the obstacle boxes, which hold the ray hits, not to
+/// cell centres).
 pub fn nearest_obstacle(map: &Map, p: Point2<f64>, max_m: f64) -> Option<Point2<f64>> {
-    let grid = map.grid();
-    let c = grid.cell_at(p.x, p.y);
-    let r = (max_m / grid.res).ceil() as i32;
-    let mut best = max_m * max_m;
-    let mut found = None;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let n = Cell::new(c.x + dx, c.y + dy);
-            if let Some(i) = grid.checked_index(n) {
-                if map.is_obstacle(i) {
-                    let o = grid.center(n);
-                    let d2 = (o - p).norm_squared();
-                    if d2 < best {
-                        best = d2;
-                        found = Some(o);
-                    }
-                }
-            }
-        }
-    }
-    found
+    map.nearest_obstacle_point(p, max_m)
 }
