@@ -68,6 +68,9 @@ pub struct Layers {
     state: Vec<CellState>,
     /// Cells the robot has stood on: free in 2D unless an obstacle is seen there.
     footprint: Vec<bool>,
+    /// Cells with a known voxel in the robot band, an obstacle, or the robot's footprint: cells the
+    /// robot has any evidence about. A never-seen cell may hide a wall.
+    seen: Vec<bool>,
     surface: Vec<bool>,
     /// Per Obstacle cell, the obstacle box its inflation and proximity counts were made with (so
     /// that they can be taken back exactly); `None` for other cells.
@@ -105,6 +108,7 @@ impl Layers {
             segment_min_cells: m.frontier_min_cells,
             state: vec![CellState::Unknown; n],
             footprint: vec![false; n],
+            seen: vec![false; n],
             surface: vec![false; n],
             applied_box: vec![None; n],
             inflation: vec![0; n],
@@ -146,8 +150,13 @@ impl Layers {
         (&self.inflation, &self.proximity)
     }
 
-    /// The state and surface flag of one column, from its voxels and the footprint flag.
-    fn column(&self, occ: &Occupancy, idx: usize) -> (CellState, bool) {
+    /// Whether the robot has any evidence about cell `idx` (see the field's doc).
+    pub fn is_seen(&self, idx: usize) -> bool {
+        self.seen[idx]
+    }
+
+    /// The state, surface flag and seen flag of one column, from its voxels and the footprint flag.
+    fn column(&self, occ: &Occupancy, idx: usize) -> (CellState, bool, bool) {
         let cell = self.grid.cell(idx);
         let mut known = 0;
         let mut lowest_known = false;
@@ -160,6 +169,10 @@ impl Layers {
             }
             blocked |= s == VoxelState::Occupied;
         }
+        // Sticky obstacles: the scene is static and the sensor exact, so every hit lies on a real
+        // surface. A voxel a wall only partly fills is later crossed by grazing rays that miss the
+        // wall and drive its log-odds below zero; the column must still block the robot.
+        blocked |= !occ.obstacle_box(idx).is_empty();
         let surface = self
             .surface_band
             .clone()
@@ -171,7 +184,7 @@ impl Layers {
         } else {
             CellState::Unknown
         };
-        (state, surface)
+        (state, surface, known > 0 || blocked || self.footprint[idx])
     }
 
     /// The box Obstacle cell `idx` should count with: its hits', or the whole cell if it has none
@@ -191,10 +204,12 @@ impl Layers {
     /// inflation of the columns whose obstacle box grew, and updates everything that depends on them.
     pub fn update_columns(&mut self, occ: &Occupancy, columns: &[u32], grown_boxes: &[u32]) {
         let mut changed = Vec::new();
-        for &c in columns {
+        // A column whose box grew may have become an obstacle with no voxel changing state.
+        for &c in columns.iter().chain(grown_boxes) {
             let c = c as usize;
-            let (state, surface) = self.column(occ, c);
+            let (state, surface, seen) = self.column(occ, c);
             self.surface[c] = surface;
+            self.seen[c] = seen;
             self.set_state(c, state, &mut changed);
         }
         for &c in columns.iter().chain(grown_boxes) {
@@ -218,6 +233,7 @@ impl Layers {
                 let p = self.grid.center(Cell::new(cx, cy));
                 if (p - Point2::new(x, y)).norm() <= radius {
                     self.footprint[idx] = true;
+                    self.seen[idx] = true;
                     if self.state[idx] == CellState::Unknown {
                         self.set_state(idx, CellState::Free, &mut changed);
                     }
@@ -346,9 +362,10 @@ impl Layers {
     pub fn recompute_all(&mut self, occ: &Occupancy) {
         let n = self.grid.cells();
         for idx in 0..n {
-            let (state, surface) = self.column(occ, idx);
+            let (state, surface, seen) = self.column(occ, idx);
             self.state[idx] = state;
             self.surface[idx] = surface;
+            self.seen[idx] = seen;
         }
         // Each cell gathers the obstacle boxes near it (not the boxes scattering counts, as the
         // incremental path does), so that this is an independent check of it.

@@ -129,6 +129,12 @@ impl Map {
         self.layers.is_near_obstacle(idx)
     }
 
+    /// Whether the robot has any evidence about cell `idx`: a known voxel in its robot band, an
+    /// obstacle, or its own footprint. A never-seen cell may hide a wall.
+    pub fn is_seen(&self, idx: usize) -> bool {
+        self.layers.is_seen(idx)
+    }
+
     /// Whether voxel `v` has been observed (free or occupied).
     pub fn is_voxel_known(&self, v: usize) -> bool {
         self.voxel_state(v) != VoxelState::Unknown
@@ -223,6 +229,7 @@ mod tests {
             assert_eq!(scratch.frontier(), map.layers.frontier());
             assert_eq!(scratch.counters(), map.layers.counters());
             for i in 0..grid.cells() {
+                assert_eq!(scratch.is_seen(i), map.is_seen(i));
                 assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
                 assert_eq!(scratch.is_near_obstacle(i), map.is_near_obstacle(i));
                 assert_eq!(scratch.obstacle_box(i), map.obstacle_box(i));
