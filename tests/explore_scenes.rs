@@ -1,7 +1,8 @@
 //! GREEDY explores every shipped scene to the end: complete, nearly all the explorable volume and
 //! surface observed, and never a collision.
 
-use std::path::Path;
+mod common;
+
 use tensorscout::plan::PlannerKind;
 use tensorscout::scene;
 use tensorscout::sim::{self, Termination, World};
@@ -10,15 +11,8 @@ use tensorscout::Config;
 #[test]
 fn greedy_completes_every_shipped_scene() {
     let cfg = Config::default();
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut scenes: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "obj"))
-        .collect();
-    scenes.sort();
     let mut failures = Vec::new();
-    for path in scenes {
+    for path in common::shipped_scenes() {
         let scene = scene::load(&path, &cfg.scene).unwrap();
         let world = World::new(&scene, &cfg, None).unwrap();
         let out = sim::run(

@@ -1,22 +1,12 @@
 //! The tensor field on every shipped scene, fully observed: the fast evaluator agrees with the f64
 //! brute-force reference, and the degenerate points are few and clear of walls.
 
-use std::path::Path;
+mod common;
+
+use common::shipped_scenes;
 use tensorscout::field;
 use tensorscout::scene::{self, GroundTruth};
 use tensorscout::Config;
-
-fn shipped_scenes() -> Vec<std::path::PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut scenes: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "obj"))
-        .collect();
-    scenes.sort();
-    assert!(scenes.len() >= 8, "expected at least 8 shipped scenes");
-    scenes
-}
 
 #[test]
 fn field_on_shipped_scenes_matches_reference_and_has_few_clear_points() {

@@ -40,7 +40,8 @@ pub mod control;
 pub mod degenerate;
 pub mod draw;
 pub mod eval;
-pub mod synth;
+#[cfg(test)]
+pub(crate) mod synth;
 pub mod timevary;
 pub mod topology;
 

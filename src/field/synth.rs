@@ -1,6 +1,7 @@
-//! Synthetic layouts for the field's tests and bench (the shipped scenes live elsewhere): walls and
+//! Synthetic layouts for the field's tests (the shipped scenes live elsewhere): walls and
 //! boxes as axis-aligned rectangles rasterised into a surface mask (cell centres inside a rectangle).
 
+use crate::field::eval::FieldGrid;
 use crate::grid::GridSpec;
 use nalgebra::{Point2, Rotation2};
 
@@ -124,4 +125,17 @@ pub fn reveal(layout: &Layout, centres: &[Point2<f64>], radius: f64) -> Vec<bool
             }
         })
         .collect()
+}
+
+/// A field over `[-half, half]²` at 0.1 m whose (a, b) at each cell centre is `f(x, y)`, with unit
+/// weights: locally linear fields with known degenerate points.
+pub fn field_from_fn(half: f64, f: impl Fn(f64, f64) -> [f64; 2]) -> FieldGrid {
+    let spec = GridSpec::covering(Point2::new(-half, -half), Point2::new(half, half), 1.0, 0.1);
+    let mut g = FieldGrid::zeros(spec);
+    for i in 0..spec.cells() {
+        let p = spec.center(spec.cell(i));
+        g.ab[i] = f(p.x, p.y);
+        g.weight[i] = 1.0;
+    }
+    g
 }

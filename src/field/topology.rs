@@ -418,14 +418,7 @@ mod tests {
     use super::*;
 
     fn linear(f: impl Fn(f64, f64) -> [f64; 2]) -> FieldGrid {
-        let spec = GridSpec::covering(Point2::new(-1.0, -1.0), Point2::new(1.0, 1.0), 1.0, 0.1);
-        let mut g = FieldGrid::zeros(spec);
-        for i in 0..spec.cells() {
-            let p = spec.center(spec.cell(i));
-            g.ab[i] = f(p.x, p.y);
-            g.weight[i] = 1.0;
-        }
-        g
+        crate::field::synth::field_from_fn(1.0, f)
     }
 
     #[test]

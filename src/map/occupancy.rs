@@ -116,15 +116,22 @@ pub struct OccupancyUpdate {
     pub grown_boxes: Vec<u32>,
 }
 
+/// One voxel's state.
+#[derive(Clone, Copy, Debug, Default)]
+struct Voxel {
+    log_odds: f32,
+    /// Number of the frame that last updated the voxel; 0 = never (the voxel is Unknown). Lets each
+    /// voxel take at most one update per frame without clearing anything between frames.
+    stamp: u32,
+}
+
 /// The voxel grid.
 #[derive(Clone, Debug)]
 pub struct Occupancy {
     grid: GridSpec,
     rule: LogOdds,
-    log_odds: Vec<f32>,
-    /// Number of the frame that last updated each voxel; 0 = never (the voxel is Unknown). Lets each
-    /// voxel take at most one update per frame without clearing anything between frames.
-    stamp: Vec<u32>,
+    /// Per voxel, its log-odds and its stamp side by side, so that an update touches one cache line.
+    voxels: Vec<Voxel>,
     /// Number of the frame that last listed each column in `changed_columns`.
     column_stamp: Vec<u32>,
     /// Voxel layers whose hits say where a column's obstacle is: those that can block the robot.
@@ -142,8 +149,7 @@ impl Occupancy {
         Occupancy {
             grid,
             rule,
-            log_odds: vec![0.0; grid.voxels()],
-            stamp: vec![0; grid.voxels()],
+            voxels: vec![Voxel::default(); grid.voxels()],
             column_stamp: vec![0; grid.cells()],
             obstacle_layers,
             obstacle_box: vec![ObstacleBox::EMPTY; grid.cells()],
@@ -164,9 +170,10 @@ impl Occupancy {
     /// State of voxel `v` (flat index).
     #[inline]
     pub fn state(&self, v: usize) -> VoxelState {
-        if self.stamp[v] == 0 {
+        let voxel = self.voxels[v];
+        if voxel.stamp == 0 {
             VoxelState::Unknown
-        } else if self.log_odds[v] > self.rule.occupied {
+        } else if voxel.log_odds > self.rule.occupied {
             VoxelState::Occupied
         } else {
             VoxelState::Free
@@ -176,12 +183,12 @@ impl Occupancy {
     /// Whether voxel `v` has been observed.
     #[inline]
     pub fn is_known(&self, v: usize) -> bool {
-        self.stamp[v] != 0
+        self.voxels[v].stamp != 0
     }
 
     /// Log-odds of voxel `v` (0 while Unknown).
     pub fn log_odds(&self, v: usize) -> f32 {
-        self.log_odds[v]
+        self.voxels[v].log_odds
     }
 
     /// Number of known voxels (all layers).
@@ -199,8 +206,7 @@ impl Occupancy {
         let grid = self.grid;
         // Borrow the arrays apart so that the hot loop keeps their pointers in registers.
         let mut up = Updater {
-            stamp: &mut self.stamp,
-            log_odds: &mut self.log_odds,
+            voxels: &mut self.voxels,
             column_stamp: &mut self.column_stamp,
             obstacle_box: &mut self.obstacle_box,
             grid,
@@ -253,8 +259,7 @@ impl Occupancy {
 
 /// The mutable voxel arrays during one frame's integration.
 struct Updater<'a> {
-    stamp: &'a mut [u32],
-    log_odds: &'a mut [f32],
+    voxels: &'a mut [Voxel],
     column_stamp: &'a mut [u32],
     obstacle_box: &'a mut [ObstacleBox],
     grid: GridSpec,
@@ -270,14 +275,17 @@ impl Updater<'_> {
     /// changes.
     #[inline(always)]
     fn apply(&mut self, v: usize, delta: f32) {
-        let stamp = self.stamp[v];
+        let voxel = &mut self.voxels[v];
+        let stamp = voxel.stamp;
         if stamp == self.frame {
             return;
         }
-        self.stamp[v] = self.frame;
-        let old = self.log_odds[v];
+        let old = voxel.log_odds;
         let new = (old + delta).clamp(self.rule.min, self.rule.max);
-        self.log_odds[v] = new;
+        *voxel = Voxel {
+            log_odds: new,
+            stamp: self.frame,
+        };
         let changed = if stamp != 0 {
             (old > self.rule.occupied) != (new > self.rule.occupied)
         } else {

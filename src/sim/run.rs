@@ -85,6 +85,9 @@ pub fn run(
     let mut trajectory = vec![robot.pose];
 
     let dt = cfg.sim.dt_s;
+    // Simulated time of step k is k / steps_per_s (for dt = 0.1 this prints as 270.4, not
+    // 270.40000000000003).
+    let steps_per_s = 1.0 / dt;
     let total_steps = (cfg.sim.budget_s / dt).round() as u64;
     let camera_period = ((1.0 / (cfg.camera.rate_hz * dt)).round() as u64).max(1);
     let curve_period = ((cfg.sim.curve_interval_s / dt).round() as u64).max(1);
@@ -117,7 +120,7 @@ pub fn run(
     });
 
     while step < total_steps {
-        let time_s = step as f64 * dt;
+        let time_s = step as f64 / steps_per_s;
         // Sense.
         let t0 = Instant::now();
         let fired = step % camera_period == 0;
@@ -212,7 +215,7 @@ pub fn run(
         }
         if step % curve_period == 0 {
             curve.push(CurveSample {
-                t_s: step as f64 * dt,
+                t_s: step as f64 / steps_per_s,
                 path_length_m: robot.path_length_m,
                 explored_volume_m3: volume,
                 completeness: explored.completeness(),
@@ -220,7 +223,7 @@ pub fn run(
         }
         observer.on_step(&StepView {
             step,
-            time_s: step as f64 * dt,
+            time_s: step as f64 / steps_per_s,
             budget_s: cfg.sim.budget_s,
             pose: robot.pose,
             completeness: explored.completeness(),
@@ -234,7 +237,7 @@ pub fn run(
         }
     }
 
-    let sim_time_s = step as f64 * dt;
+    let sim_time_s = step as f64 / steps_per_s;
     if curve.last().is_none_or(|c| c.t_s < sim_time_s) {
         curve.push(CurveSample {
             t_s: sim_time_s,
