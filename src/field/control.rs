@@ -115,7 +115,6 @@ pub fn move_point(field: &mut FieldGrid, from: Point2<f64>, to: Point2<f64>) {
 mod tests {
     use super::*;
     use crate::field::degenerate::detect;
-    use crate::grid::GridSpec;
 
     fn field(f: impl Fn(f64, f64) -> [f64; 2]) -> FieldGrid {
         crate::field::synth::field_from_fn(2.0, f)
