@@ -276,3 +276,48 @@ fn every_example_config_loads() {
     }
     assert!(n >= 3);
 }
+
+#[test]
+fn y_up_flag_rotates_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    // The test room with y and z swapped: (x, y, z) -> (x, z, -y), i.e. written y-up.
+    let y_up: String = room_obj()
+        .lines()
+        .map(|l| {
+            let parts: Vec<&str> = l.split_whitespace().collect();
+            if parts.first() == Some(&"v") {
+                let (x, y, z) = (parts[1], parts[2], parts[3]);
+                let neg_y = if let Some(stripped) = y.strip_prefix('-') {
+                    stripped.to_string()
+                } else {
+                    format!("-{y}")
+                };
+                format!("v {x} {z} {neg_y}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let scene = write(dir.path(), "room_yup.obj", &y_up);
+    let s = scene.to_str().unwrap();
+    let info = |extra: &[&str]| {
+        let mut args = vec!["scene", "info", s, "--json"];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let rotated = info(&["--y-up"]);
+    // Back to the z-up room: 6 × 4 m footprint, 2.5 m tall.
+    let min = &rotated["bounds_min"];
+    let max = &rotated["bounds_max"];
+    let size = |k: usize| max[k].as_f64().unwrap() - min[k].as_f64().unwrap();
+    assert!(
+        (size(0) - 6.0).abs() < 1e-4
+            && (size(1) - 4.0).abs() < 1e-4
+            && (size(2) - 2.5).abs() < 1e-4
+    );
+    let same = info(&["--set", "scene.y_up=true"]);
+    assert_eq!(rotated["bounds_max"], same["bounds_max"]);
+}

@@ -61,11 +61,17 @@ pub struct ConfigArgs {
     /// Override one config key, e.g. `--set map.voxel_m=0.05` (repeatable, dotted keys).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// The mesh is y-up (as many modelling tools write it): rotate it to z-up on load
+    /// (the same as `--set scene.y_up=true`).
+    #[arg(long)]
+    y_up: bool,
 }
 
 impl ConfigArgs {
     fn load(&self) -> tensorscout::Result<Config> {
-        Config::load(self.config.as_deref(), &self.set)
+        let mut cfg = Config::load(self.config.as_deref(), &self.set)?;
+        cfg.scene.y_up |= self.y_up;
+        Ok(cfg)
     }
 }
 
