@@ -196,8 +196,9 @@ pub struct BatchReport {
     pub failed: usize,
 }
 
-/// The runs still to do after `--resume` and how many were skipped.
-pub fn pending_runs(spec: &BenchSpec) -> Result<(Vec<RunSpec>, Vec<BenchRow>)> {
+/// The runs still to do: all of them, or with `--resume` those not yet in `results.jsonl` (whose
+/// truncated last line, if any, is dropped first).
+pub fn pending_runs(spec: &BenchSpec) -> Result<Vec<RunSpec>> {
     let runs = plan_runs(spec);
     let jsonl = spec.out.join(store::RESULTS_JSONL);
     let existing = if jsonl.exists() {
@@ -212,18 +213,17 @@ pub fn pending_runs(spec: &BenchSpec) -> Result<(Vec<RunSpec>, Vec<BenchRow>)> {
         Vec::new()
     };
     let done: BTreeSet<&RunKey> = existing.iter().map(|r| &r.key).collect();
-    let todo = runs
+    Ok(runs
         .into_iter()
         .filter(|r| !done.contains(&r.key))
-        .collect();
-    Ok((todo, existing))
+        .collect())
 }
 
 /// Runs the batch: writes each row to `results.jsonl` as it finishes, then every derived file.
 pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchReport> {
     std::fs::create_dir_all(&spec.out).map_err(|e| Error::io(&spec.out, e))?;
     let total = plan_runs(spec).len();
-    let (todo, existing) = pending_runs(spec)?;
+    let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
     let writer = Mutex::new(store::RowWriter::open_append(
         &spec.out.join(store::RESULTS_JSONL),
@@ -248,7 +248,6 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
     if let Some(e) = write_errors.into_iter().next() {
         return Err(e);
     }
-    let _ = existing;
     let failed = write_outputs(&spec.out, spec.reference)?;
     Ok(BatchReport {
         total,

@@ -6,7 +6,7 @@
 //! Not drawn yet: TSP time per planning step (THP Fig. 8): runs do not record TSP timings so far.
 
 use super::store::{BenchRow, RunStatus};
-use super::summary::scene_name;
+use super::summary::{run_labeller, scene_name};
 use crate::sim::metrics::CurveSample;
 use crate::{Error, Result};
 use plotters::prelude::*;
@@ -113,13 +113,14 @@ fn file_stem(name: &str) -> String {
 
 /// Writes both plots for every scene with at least one successful run.
 pub fn write_plots(dir: &Path, rows: &[BenchRow]) -> Result<()> {
+    let label = run_labeller(rows);
     let mut by_scene: BTreeMap<String, BTreeMap<String, Vec<&[CurveSample]>>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.status == RunStatus::Ok) {
         if let Some(res) = &r.result {
             by_scene
                 .entry(scene_name(&r.key.scene_path))
                 .or_default()
-                .entry(r.key.planner.clone())
+                .entry(label(r))
                 .or_default()
                 .push(&res.curve);
         }

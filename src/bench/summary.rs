@@ -86,14 +86,33 @@ pub fn scene_name(path: &str) -> String {
         .unwrap_or_else(|| path.to_string())
 }
 
+/// The name a run is grouped and shown under: its planner, followed by `@` and the first 6 digits
+/// of its config hash when `rows` mix several configs (e.g. merged batches run with different
+/// `--set`), so that different configs are never averaged together.
+pub fn run_labeller(rows: &[BenchRow]) -> impl Fn(&BenchRow) -> String {
+    let first = rows.first().map(|r| r.key.config_hash.clone());
+    let multi = rows
+        .iter()
+        .any(|r| Some(&r.key.config_hash) != first.as_ref());
+    move |r: &BenchRow| {
+        if multi {
+            let h = &r.key.config_hash;
+            format!("{}@{}", r.key.planner, &h[..h.len().min(6)])
+        } else {
+            r.key.planner.clone()
+        }
+    }
+}
+
 impl Summary {
     /// Builds the summary of `rows`. The reference planner is `reference`, else THP, else the first
     /// planner (by name) with a successful run.
     pub fn of(rows: &[BenchRow], reference: Option<PlannerKind>) -> Summary {
+        let label = run_labeller(rows);
         let mut groups: BTreeMap<(String, String), Vec<&BenchRow>> = BTreeMap::new();
         for r in rows {
             groups
-                .entry((r.key.scene_path.clone(), r.key.planner.clone()))
+                .entry((r.key.scene_path.clone(), label(r)))
                 .or_default()
                 .push(r);
         }
@@ -101,15 +120,19 @@ impl Summary {
             let mut v: Vec<String> = rows
                 .iter()
                 .filter(|r| r.status == RunStatus::Ok)
-                .map(|r| r.key.planner.clone())
+                .map(&label)
                 .collect();
             v.sort();
             v.dedup();
             v
         };
         let wanted = reference.unwrap_or(PlannerKind::Thp).name().to_string();
-        let reference = if ok_planners.contains(&wanted) {
-            Some(wanted)
+        // With several configs, the reference is the wanted planner's first config.
+        let found = ok_planners
+            .iter()
+            .find(|l| **l == wanted || l.starts_with(&format!("{wanted}@")));
+        let reference = if let Some(found) = found {
+            Some(found.clone())
         } else if reference.is_none() {
             ok_planners.first().cloned()
         } else {
@@ -168,7 +191,7 @@ impl Summary {
         let verdicts = planners
             .into_iter()
             .map(|p| {
-                let runs: Vec<&BenchRow> = rows.iter().filter(|r| &r.key.planner == p).collect();
+                let runs: Vec<&BenchRow> = rows.iter().filter(|r| &label(r) == p).collect();
                 let ok: Vec<_> = runs
                     .iter()
                     .filter(|r| r.status == RunStatus::Ok)
@@ -191,7 +214,7 @@ impl Summary {
             .filter(|r| r.status == RunStatus::Failed)
             .map(|r| Failure {
                 scene: r.key.scene_path.clone(),
-                planner: r.key.planner.clone(),
+                planner: label(r),
                 seed: r.key.seed,
                 error: r.error.clone().unwrap_or_default(),
             })
@@ -313,6 +336,82 @@ mod tests {
             }
         );
         assert_eq!(MeanStd::of(&[]), MeanStd::default());
+    }
+
+    fn row(planner: &str, config_hash: &str, eps: Option<f64>) -> BenchRow {
+        let key = super::super::RunKey {
+            scene_path: "scenes/a.obj".into(),
+            scene_hash: "h".into(),
+            planner: planner.into(),
+            seed: 1,
+            config_hash: config_hash.into(),
+        };
+        match eps {
+            None => BenchRow::failed(key, "boom".into()),
+            Some(e) => {
+                let json = format!(
+                    r#"{{"scene":"a","scene_hash":"h","planner":"{planner}","seed":1,
+                    "spawn":{{"x":0,"y":0,"yaw":0}},"termination":"complete","completeness":0.5,
+                    "explored_volume_m3":{e},"explorable_volume_m3":10,"surface_coverage":0.5,
+                    "path_length_m":3,"sim_time_s":10,"wall_time_s":1,"real_time_factor":10,
+                    "collisions":0,"steps":100,"replans":1,"astar_calls":1,"timings_ms":{{}},
+                    "version":"0","config_hash":"{config_hash}","curve":[]}}"#
+                );
+                BenchRow {
+                    key,
+                    status: super::super::RunStatus::Ok,
+                    error: None,
+                    result: Some(serde_json::from_str(&json).unwrap()),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn r_epsilon_is_relative_to_the_reference() {
+        let rows = [
+            row("greedy", "c1", Some(4.0)),
+            row("thp", "c1", Some(8.0)),
+            row("nbv", "c1", None),
+        ];
+        let s = Summary::of(&rows, None);
+        assert_eq!(s.reference.as_deref(), Some("thp"));
+        let r: Vec<_> = s
+            .cells
+            .iter()
+            .map(|c| (c.planner.as_str(), c.r_epsilon))
+            .collect();
+        assert_eq!(
+            r,
+            [("greedy", Some(0.5)), ("nbv", None), ("thp", Some(1.0))]
+        );
+        // An explicit reference with no successful run gives no ratios.
+        let s = Summary::of(&rows, Some(PlannerKind::Nbv));
+        assert_eq!(s.reference, None);
+        assert!(s.cells.iter().all(|c| c.r_epsilon.is_none()));
+        assert_eq!(s.failures.len(), 1);
+        assert!(s
+            .to_markdown()
+            .contains("- **nbv**: no successful run, 1/1 runs failed"));
+    }
+
+    #[test]
+    fn different_configs_are_kept_apart() {
+        let rows = [
+            row("greedy", "aaaaaaaa11", Some(4.0)),
+            row("greedy", "bbbbbbbb22", Some(6.0)),
+        ];
+        let s = Summary::of(&rows, None);
+        assert_eq!(s.reference.as_deref(), Some("greedy@aaaaaa"));
+        let r: Vec<_> = s
+            .cells
+            .iter()
+            .map(|c| (c.planner.as_str(), c.r_epsilon))
+            .collect();
+        assert_eq!(
+            r,
+            [("greedy@aaaaaa", Some(1.0)), ("greedy@bbbbbb", Some(1.5))]
+        );
     }
 
     #[test]
