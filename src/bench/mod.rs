@@ -219,9 +219,45 @@ pub fn pending_runs(spec: &BenchSpec) -> Result<Vec<RunSpec>> {
         .collect())
 }
 
+/// The lock file that keeps two bench processes from writing one folder at once.
+pub const LOCK_FILE: &str = "bench.lock";
+
+/// Guards a bench folder against a second process writing it at the same time (rows would be lost
+/// when one rewrites `results.jsonl` under the other). The lock holds our process id; a lock whose
+/// process is gone (after Ctrl-C) is taken over. Simplification: liveness is read from `/proc`, so
+/// off Linux a leftover lock is always taken over, and check-then-write is not atomic.
+struct DirLock {
+    path: PathBuf,
+}
+
+impl DirLock {
+    fn take(dir: &Path) -> Result<DirLock> {
+        let path = dir.join(LOCK_FILE);
+        if let Ok(text) = std::fs::read_to_string(&path) {
+            if let Ok(pid) = text.trim().parse::<u32>() {
+                if pid != std::process::id() && Path::new("/proc").join(pid.to_string()).exists() {
+                    return Err(Error::usage(format!(
+                        "{}: bench process {pid} is writing this folder; wait for it or choose another --out (delete the lock if that process is not a bench)",
+                        path.display()
+                    )));
+                }
+            }
+        }
+        std::fs::write(&path, std::process::id().to_string()).map_err(|e| Error::io(&path, e))?;
+        Ok(DirLock { path })
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
 /// Runs the batch: writes each row to `results.jsonl` as it finishes, then every derived file.
 pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchReport> {
     std::fs::create_dir_all(&spec.out).map_err(|e| Error::io(&spec.out, e))?;
+    let _lock = DirLock::take(&spec.out)?;
     let total = plan_runs(spec).len();
     let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
@@ -301,6 +337,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Re
         rows.extend(store::read_jsonl(&path)?);
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let _lock = DirLock::take(out)?;
     write_all_from_rows(out, rows, reference)
 }
 
@@ -349,6 +386,30 @@ mod tests {
             .collect();
         union.sort();
         assert_eq!(union, sorted);
+    }
+
+    #[test]
+    fn a_live_lock_is_refused_a_stale_one_taken_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = dir.path().join(LOCK_FILE);
+        // Process 1 (init) is alive on Linux.
+        std::fs::write(&lock, "1").unwrap();
+        if Path::new("/proc/1").exists() {
+            let e = DirLock::take(dir.path()).err().unwrap().to_string();
+            assert!(
+                e.starts_with(&format!("{}: bench process 1 is writing", lock.display())),
+                "{e}"
+            );
+        }
+        // A process id that cannot exist (above Linux's pid_max).
+        std::fs::write(&lock, "4294967295").unwrap();
+        let taken = DirLock::take(dir.path()).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&lock).unwrap(),
+            std::process::id().to_string()
+        );
+        drop(taken);
+        assert!(!lock.exists());
     }
 
     #[test]
