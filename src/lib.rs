@@ -6,6 +6,7 @@
 //! frontiers) → `field` (tensor field and its topology) → `plan` (goals and paths) → `sim` (robot,
 //! motion, the step loop, metrics). `render` draws pictures of any of them.
 
+pub mod bench;
 pub mod config;
 pub mod error;
 pub mod field;

@@ -1,5 +1,6 @@
 //! Argument definitions and dispatch, one file per subcommand.
 
+mod bench;
 mod explore;
 mod field;
 mod scene;
@@ -40,6 +41,13 @@ tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2
 tensorscout field --scene scenes/small_house.obj --json --reference"
     )]
     Field(field::FieldArgs),
+    /// Benchmark planners on many scenes and seeds in parallel; tables, summary and plots.
+    #[command(
+        after_help = "Examples:\n  tensorscout bench --scenes scenes/ --planners greedy --seeds 3 --out bench_out\n  \
+tensorscout bench --scenes scenes/ --seeds 3 --out shard1 --shard 1/2\n  \
+tensorscout bench merge shard1 shard2 --out bench_out"
+    )]
+    Bench(bench::BenchArgs),
     /// Print configuration.
     #[command(subcommand)]
     Config(ConfigCommand),
@@ -80,6 +88,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Explore(args) => explore::run(args),
         Command::Scene(cmd) => scene::run(cmd),
         Command::Field(args) => field::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Config(ConfigCommand::Default) => {
             print!("{}", tensorscout::config::DEFAULT_TOML);
             Ok(())

@@ -1,0 +1,443 @@
+//! Batch benchmark: scenes × planners × seeds on one rayon pool, one row per run appended to
+//! `results.jsonl` as it finishes (so an interrupted batch can resume), then tables, a summary and
+//! plots rebuilt from those rows.
+//!
+//! Every derived file (`results.csv`, `curves.csv`, `summary.md`, `summary.json`, `plots/`) is a pure
+//! function of the sorted rows, so a sharded batch merged with [`merge`] and an unsharded one give
+//! the same files (apart from wall-clock fields).
+
+pub mod plot;
+pub mod store;
+pub mod summary;
+
+use crate::plan::PlannerKind;
+use crate::sim::{self, World};
+use crate::{scene, Config, Error, Result};
+use rayon::prelude::*;
+use std::collections::BTreeSet;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+pub use store::{BenchRow, RunKey, RunStatus};
+
+/// Scene file extensions `--scenes DIR` picks up.
+pub const SCENE_EXTENSIONS: [&str; 5] = ["obj", "ply", "yaml", "yml", "json"];
+
+/// One deterministic slice `K/N` (1-based `K`) of a batch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = Error;
+    /// Parses `K/N` with 1 ≤ K ≤ N.
+    fn from_str(s: &str) -> Result<Shard> {
+        let bad = || Error::usage(format!("--shard `{s}`: expected K/N with 1 <= K <= N"));
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: usize = k.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if index == 0 || count == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// What to run and where to put it.
+pub struct BenchSpec {
+    pub scenes: Vec<PathBuf>,
+    pub planners: Vec<PlannerKind>,
+    /// Number of seeds per scene and planner: `cfg.seed`, `cfg.seed + 1`, …
+    pub seeds: u64,
+    pub config: Config,
+    /// Runs in parallel (the size of the one rayon pool).
+    pub jobs: usize,
+    pub out: PathBuf,
+    pub resume: bool,
+    pub shard: Option<Shard>,
+    pub reference: Option<PlannerKind>,
+}
+
+/// One run to do.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    pub key: RunKey,
+    pub scene_path: PathBuf,
+    pub planner: PlannerKind,
+}
+
+/// Expands `--scenes` arguments: a folder gives its scene files (sorted, not recursive), a file
+/// itself. Sorted and without duplicates.
+pub fn collect_scenes(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = BTreeSet::new();
+    for a in args {
+        if a.is_dir() {
+            let entries = std::fs::read_dir(a).map_err(|e| Error::io(a, e))?;
+            for e in entries {
+                let p = e.map_err(|e| Error::io(a, e))?.path();
+                let ext = p
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .map(str::to_ascii_lowercase);
+                if p.is_file() && ext.is_some_and(|e| SCENE_EXTENSIONS.contains(&e.as_str())) {
+                    out.insert(p);
+                }
+            }
+        } else {
+            // A missing file is kept: it becomes a failed row, not an abort of the whole batch.
+            out.insert(a.clone());
+        }
+    }
+    if out.is_empty() {
+        return Err(Error::usage("--scenes: no scene files found"));
+    }
+    Ok(out.into_iter().collect())
+}
+
+/// Every run of the batch, sorted by scene, planner and seed, then cut to the shard.
+pub fn plan_runs(spec: &BenchSpec) -> Vec<RunSpec> {
+    let config_hash = spec.config.hash();
+    let mut planners = spec.planners.clone();
+    planners.sort();
+    planners.dedup();
+    let mut runs = Vec::new();
+    for path in &spec.scenes {
+        // An unreadable file gets an empty hash; its runs fail with the read error.
+        let scene_hash = std::fs::read(path)
+            .map(|b| scene::content_hash(&b))
+            .unwrap_or_default();
+        for &planner in &planners {
+            for i in 0..spec.seeds {
+                runs.push(RunSpec {
+                    key: RunKey {
+                        scene_path: path.display().to_string(),
+                        scene_hash: scene_hash.clone(),
+                        planner: planner.name().to_string(),
+                        seed: spec.config.seed.wrapping_add(i),
+                        config_hash: config_hash.clone(),
+                    },
+                    scene_path: path.clone(),
+                    planner,
+                });
+            }
+        }
+    }
+    runs.sort_by(|a, b| a.key.cmp(&b.key));
+    if let Some(s) = spec.shard {
+        runs = runs
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| i % s.count == s.index - 1)
+            .map(|(_, r)| r)
+            .collect();
+    }
+    runs
+}
+
+/// Runs one exploration; any error or panic becomes a failed row.
+pub fn run_one(run: &RunSpec, base: &Config) -> BenchRow {
+    let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<sim::RunOutput> {
+        let mut cfg = base.clone();
+        cfg.seed = run.key.seed;
+        run.planner.build(&cfg)?;
+        let scene = scene::load(&run.scene_path, &cfg.scene)?;
+        let world = World::new(&scene, &cfg, None)?;
+        sim::run(&scene, world, &cfg, run.planner, &mut sim::NoObserver)
+    }));
+    match outcome {
+        Ok(Ok(out)) => {
+            let status = if out.result.error.is_some() {
+                RunStatus::Failed
+            } else {
+                RunStatus::Ok
+            };
+            BenchRow {
+                key: run.key.clone(),
+                status,
+                error: out.result.error.clone(),
+                result: Some(out.result),
+            }
+        }
+        Ok(Err(e)) => BenchRow::failed(run.key.clone(), e.to_string()),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            BenchRow::failed(run.key.clone(), format!("panic: {msg}"))
+        }
+    }
+}
+
+/// Receives one call per finished run (for a progress bar).
+pub trait Progress: Sync {
+    fn finished(&self, row: &BenchRow);
+}
+
+/// Progress that shows nothing.
+pub struct NoProgress;
+impl Progress for NoProgress {
+    fn finished(&self, _row: &BenchRow) {}
+}
+
+/// What a batch did.
+#[derive(Debug, Default)]
+pub struct BatchReport {
+    /// Runs in the batch (this shard).
+    pub total: usize,
+    /// Runs skipped because `--resume` found them.
+    pub skipped: usize,
+    /// Runs done now.
+    pub ran: usize,
+    /// Failed rows among all rows in DIR.
+    pub failed: usize,
+}
+
+/// The runs still to do: all of them, or with `--resume` those not yet in `results.jsonl` (whose
+/// truncated last line, if any, is dropped first).
+pub fn pending_runs(spec: &BenchSpec) -> Result<Vec<RunSpec>> {
+    let runs = plan_runs(spec);
+    let jsonl = spec.out.join(store::RESULTS_JSONL);
+    let existing = if jsonl.exists() {
+        if !spec.resume {
+            return Err(Error::usage(format!(
+                "{} already exists; pass --resume to continue that batch or choose another --out",
+                jsonl.display()
+            )));
+        }
+        store::repair_jsonl(&jsonl)?
+    } else {
+        Vec::new()
+    };
+    let done: BTreeSet<&RunKey> = existing.iter().map(|r| &r.key).collect();
+    Ok(runs
+        .into_iter()
+        .filter(|r| !done.contains(&r.key))
+        .collect())
+}
+
+/// The lock file that keeps two bench processes from writing one folder at once.
+pub const LOCK_FILE: &str = "bench.lock";
+
+/// Guards a bench folder against a second process writing it at the same time (rows would be lost
+/// when one rewrites `results.jsonl` under the other). The lock holds our process id; a lock whose
+/// process is gone (after Ctrl-C) is taken over. Simplification: liveness is read from `/proc`, so
+/// off Linux a leftover lock is always taken over, and check-then-write is not atomic.
+struct DirLock {
+    path: PathBuf,
+}
+
+impl DirLock {
+    fn take(dir: &Path) -> Result<DirLock> {
+        let path = dir.join(LOCK_FILE);
+        if let Ok(text) = std::fs::read_to_string(&path) {
+            if let Ok(pid) = text.trim().parse::<u32>() {
+                if pid != std::process::id() && Path::new("/proc").join(pid.to_string()).exists() {
+                    return Err(Error::usage(format!(
+                        "{}: bench process {pid} is writing this folder; wait for it or choose another --out (delete the lock if that process is not a bench)",
+                        path.display()
+                    )));
+                }
+            }
+        }
+        std::fs::write(&path, std::process::id().to_string()).map_err(|e| Error::io(&path, e))?;
+        Ok(DirLock { path })
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Runs the batch: writes each row to `results.jsonl` as it finishes, then every derived file.
+pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchReport> {
+    std::fs::create_dir_all(&spec.out).map_err(|e| Error::io(&spec.out, e))?;
+    let _lock = DirLock::take(&spec.out)?;
+    let total = plan_runs(spec).len();
+    let todo = pending_runs(spec)?;
+    let skipped = total - todo.len();
+    let writer = Mutex::new(store::RowWriter::open_append(
+        &spec.out.join(store::RESULTS_JSONL),
+    )?);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(spec.jobs.max(1))
+        .build()
+        .map_err(|e| Error::Runtime(format!("cannot start the thread pool: {e}")))?;
+    // One pool: the runs and the ray casting inside each run share its threads, so the batch never
+    // uses more than `jobs` threads.
+    let write_errors: Vec<Error> = pool.install(|| {
+        todo.par_iter()
+            .filter_map(|run| {
+                let row = run_one(run, &spec.config);
+                let res = writer.lock().expect("writer lock").append(&row);
+                progress.finished(&row);
+                res.err()
+            })
+            .collect()
+    });
+    drop(writer);
+    if let Some(e) = write_errors.into_iter().next() {
+        return Err(e);
+    }
+    let failed = write_outputs(&spec.out, spec.reference)?;
+    Ok(BatchReport {
+        total,
+        skipped,
+        ran: total - skipped,
+        failed,
+    })
+}
+
+/// Rebuilds `results.jsonl` (sorted) and every derived file in `dir` from its rows. Returns the
+/// number of failed rows.
+pub fn write_outputs(dir: &Path, reference: Option<PlannerKind>) -> Result<usize> {
+    let rows = store::read_jsonl(&dir.join(store::RESULTS_JSONL))?;
+    write_all_from_rows(dir, rows, reference)
+}
+
+fn write_all_from_rows(
+    dir: &Path,
+    mut rows: Vec<BenchRow>,
+    reference: Option<PlannerKind>,
+) -> Result<usize> {
+    rows.sort_by(|a, b| a.key.cmp(&b.key));
+    rows.dedup_by(|a, b| a.key == b.key);
+    store::write_jsonl(&dir.join(store::RESULTS_JSONL), &rows)?;
+    store::write_results_csv(&dir.join(store::RESULTS_CSV), &rows)?;
+    store::write_curves_csv(&dir.join(store::CURVES_CSV), &rows)?;
+    let summary = summary::Summary::of(&rows, reference);
+    store::write_atomic(&dir.join("summary.md"), summary.to_markdown().as_bytes())?;
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| Error::Runtime(format!("summary.json: {e}")))?;
+    store::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
+    plot::write_plots(&dir.join("plots"), &rows)?;
+    Ok(rows
+        .iter()
+        .filter(|r| r.status == RunStatus::Failed)
+        .count())
+}
+
+/// Combines the rows of several batch folders (e.g. shards) into `out` and writes every derived file.
+/// A run present in several folders is kept once. Returns the number of failed rows.
+pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Result<usize> {
+    let mut rows = Vec::new();
+    for d in dirs {
+        let path = d.join(store::RESULTS_JSONL);
+        if !path.is_file() {
+            return Err(Error::io(
+                &path,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no results.jsonl here"),
+            ));
+        }
+        rows.extend(store::read_jsonl(&path)?);
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let _lock = DirLock::take(out)?;
+    write_all_from_rows(out, rows, reference)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_parsing() {
+        assert_eq!(
+            "2/3".parse::<Shard>().unwrap(),
+            Shard { index: 2, count: 3 }
+        );
+        for bad in ["0/2", "3/2", "1", "a/b", "1/0"] {
+            let e = bad.parse::<Shard>().unwrap_err().to_string();
+            assert_eq!(e, format!("--shard `{bad}`: expected K/N with 1 <= K <= N"));
+        }
+    }
+
+    fn spec(shard: Option<Shard>) -> BenchSpec {
+        BenchSpec {
+            scenes: vec!["b.obj".into(), "a.obj".into()],
+            planners: vec![PlannerKind::Greedy, PlannerKind::Thp],
+            seeds: 3,
+            config: Config::default(),
+            jobs: 1,
+            out: "unused".into(),
+            resume: false,
+            shard,
+            reference: None,
+        }
+    }
+
+    #[test]
+    fn shards_partition_the_sorted_runs() {
+        let all = plan_runs(&spec(None));
+        assert_eq!(all.len(), 2 * 2 * 3);
+        let keys: Vec<_> = all.iter().map(|r| r.key.clone()).collect();
+        let mut sorted = keys.clone();
+        sorted.sort();
+        assert_eq!(keys, sorted);
+        assert_eq!(all[0].key.scene_path, "a.obj");
+        let mut union: Vec<RunKey> = (1..=3)
+            .flat_map(|k| plan_runs(&spec(Some(Shard { index: k, count: 3 }))))
+            .map(|r| r.key)
+            .collect();
+        union.sort();
+        assert_eq!(union, sorted);
+    }
+
+    #[test]
+    fn a_live_lock_is_refused_a_stale_one_taken_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = dir.path().join(LOCK_FILE);
+        // Process 1 (init) is alive on Linux.
+        std::fs::write(&lock, "1").unwrap();
+        if Path::new("/proc/1").exists() {
+            let e = DirLock::take(dir.path()).err().unwrap().to_string();
+            assert!(
+                e.starts_with(&format!("{}: bench process 1 is writing", lock.display())),
+                "{e}"
+            );
+        }
+        // A process id that cannot exist (above Linux's pid_max).
+        std::fs::write(&lock, "4294967295").unwrap();
+        let taken = DirLock::take(dir.path()).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&lock).unwrap(),
+            std::process::id().to_string()
+        );
+        drop(taken);
+        assert!(!lock.exists());
+    }
+
+    #[test]
+    fn missing_scene_is_a_failed_row() {
+        let run = RunSpec {
+            key: RunKey {
+                scene_path: "/nonexistent/x.obj".into(),
+                scene_hash: String::new(),
+                planner: "greedy".into(),
+                seed: 0,
+                config_hash: String::new(),
+            },
+            scene_path: "/nonexistent/x.obj".into(),
+            planner: PlannerKind::Greedy,
+        };
+        let row = run_one(&run, &Config::default());
+        assert_eq!(row.status, RunStatus::Failed);
+        assert!(row.error.unwrap().starts_with("/nonexistent/x.obj"));
+        let row = run_one(
+            &RunSpec {
+                planner: PlannerKind::Nbv,
+                ..run
+            },
+            &Config::default(),
+        );
+        assert_eq!(
+            row.error.as_deref(),
+            Some("planner `nbv` is not available in this version; available: greedy")
+        );
+    }
+}

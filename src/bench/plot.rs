@@ -1,0 +1,186 @@
+//! `plots/`: per scene, ε against path length (THP Fig. 6) and completeness against simulated time,
+//! every planner on one plot (one line per seed, one colour and legend entry per planner).
+//!
+//! Drawn by plotters into an RGB buffer (saved as PNG with `image`), text with the embedded DejaVu
+//! Sans (assets/fonts), so the output does not depend on the machine's fonts.
+//! Not drawn yet: TSP time per planning step (THP Fig. 8): runs do not record TSP timings so far.
+
+use super::store::{BenchRow, RunStatus};
+use super::summary::{run_labeller, scene_name};
+use crate::sim::metrics::CurveSample;
+use crate::{Error, Result};
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Once;
+
+const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+const SIZE: (u32, u32) = (900, 600);
+/// Planner colours (Okabe–Ito, readable by colour-blind readers), by planner name order.
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+];
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The font is compiled in and known to parse; the unit test below checks it.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// The lines of one plot: per planner (name order), per seed, the (x, y) points.
+type Series = BTreeMap<String, Vec<Vec<(f64, f64)>>>;
+
+/// One plot: title, axis labels, series. Writes `path`.
+pub fn line_plot(path: &Path, title: &str, x_label: &str, y_label: &str, s: &Series) -> Result<()> {
+    register_font();
+    let (w, h) = SIZE;
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let draw_err = |e: &dyn std::fmt::Display| Error::Runtime(format!("{}: {e}", path.display()));
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| draw_err(&e))?;
+        let pts = s.values().flatten().flatten();
+        let x_max = pts.clone().map(|p| p.0).fold(0.0, f64::max).max(1e-6) * 1.02;
+        let y_max = pts.map(|p| p.1).fold(0.0, f64::max).max(1e-6) * 1.05;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 26))
+            .margin(15)
+            .x_label_area_size(55)
+            .y_label_area_size(75)
+            .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+            .map_err(|e| draw_err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .axis_desc_style(("sans-serif", 20))
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| draw_err(&e))?;
+        for (i, (planner, lines)) in s.iter().enumerate() {
+            let colour = COLOURS[i % COLOURS.len()];
+            for (j, line) in lines.iter().enumerate() {
+                let series = chart
+                    .draw_series(LineSeries::new(
+                        line.iter().copied(),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(|e| draw_err(&e))?;
+                if j == 0 {
+                    series.label(planner.as_str()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
+                    });
+                }
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .label_font(("sans-serif", 18))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| draw_err(&e))?;
+        root.present().map_err(|e| draw_err(&e))?;
+    }
+    let img = image::RgbImage::from_raw(w, h, buf)
+        .ok_or_else(|| Error::Runtime(format!("{}: bad image buffer", path.display())))?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| draw_err(&e))?;
+    super::store::write_atomic(path, &png)
+}
+
+/// A file-name-safe version of a scene name.
+fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Writes both plots for every scene with at least one successful run.
+pub fn write_plots(dir: &Path, rows: &[BenchRow]) -> Result<()> {
+    let label = run_labeller(rows);
+    let mut by_scene: BTreeMap<String, BTreeMap<String, Vec<&[CurveSample]>>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.status == RunStatus::Ok) {
+        if let Some(res) = &r.result {
+            by_scene
+                .entry(scene_name(&r.key.scene_path))
+                .or_default()
+                .entry(label(r))
+                .or_default()
+                .push(&res.curve);
+        }
+    }
+    if by_scene.is_empty() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    for (scene, planners) in &by_scene {
+        let series = |f: fn(&CurveSample) -> (f64, f64)| -> Series {
+            planners
+                .iter()
+                .map(|(p, curves)| {
+                    let lines = curves.iter().map(|c| c.iter().map(f).collect()).collect();
+                    (p.clone(), lines)
+                })
+                .collect()
+        };
+        let stem = file_stem(scene);
+        line_plot(
+            &dir.join(format!("{stem}_volume_vs_path.png")),
+            &format!("{scene}: explored volume ε against path length"),
+            "path length L (m)",
+            "explored volume ε (m³)",
+            &series(|c| (c.path_length_m, c.explored_volume_m3)),
+        )?;
+        line_plot(
+            &dir.join(format!("{stem}_completeness_vs_time.png")),
+            &format!("{scene}: completeness against simulated time"),
+            "simulated time (s)",
+            "completeness",
+            &series(|c| (c.t_s, c.completeness)),
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_font_parses() {
+        assert!(ab_glyph_parses(FONT));
+    }
+
+    fn ab_glyph_parses(bytes: &'static [u8]) -> bool {
+        plotters::style::register_font("test-font", FontStyle::Normal, bytes).is_ok()
+    }
+
+    #[test]
+    fn plot_is_a_png_with_ink() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.png");
+        let mut s = Series::new();
+        s.insert("greedy".into(), vec![vec![(0.0, 0.0), (1.0, 2.0)]]);
+        line_plot(&p, "t", "x", "y", &s).unwrap();
+        let img = image::open(&p).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), SIZE);
+        // The greedy line's colour appears somewhere.
+        assert!(img.pixels().any(|px| px.0 == [0, 114, 178]));
+    }
+}

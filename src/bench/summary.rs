@@ -1,0 +1,421 @@
+//! `summary.md` and `summary.json`: the batch in the shape of the THP paper's tables.
+//!
+//! Table 1: per scene and planner, explored volume ε, its ratio r_ε to the reference planner's ε on
+//! the same scene, and path length L, as mean ± sample standard deviation over seeds (successful
+//! runs only). Table 2: mean per-step stage timings. Then one verdict line per planner.
+
+use super::store::{BenchRow, RunStatus};
+use crate::plan::PlannerKind;
+use crate::sim::metrics::STAGES;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Mean and sample standard deviation (0 for fewer than two values).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct MeanStd {
+    pub mean: f64,
+    pub std: f64,
+}
+
+impl MeanStd {
+    pub fn of(v: &[f64]) -> MeanStd {
+        if v.is_empty() {
+            return MeanStd::default();
+        }
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let std = if v.len() < 2 {
+            0.0
+        } else {
+            (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        };
+        MeanStd { mean, std }
+    }
+}
+
+/// One scene × planner cell of the tables.
+#[derive(Clone, Debug, Serialize)]
+pub struct Cell {
+    pub scene: String,
+    pub planner: String,
+    pub runs: usize,
+    pub failed: usize,
+    pub explored_volume_m3: MeanStd,
+    /// Mean ε over mean ε of the reference planner on this scene; absent without a reference.
+    pub r_epsilon: Option<f64>,
+    pub path_length_m: MeanStd,
+    pub completeness: MeanStd,
+    pub sim_time_s: MeanStd,
+    pub collisions: u64,
+    /// Mean over runs of each stage's mean per-step wall time, ms.
+    pub timings_ms: BTreeMap<String, f64>,
+}
+
+/// One planner over the whole batch.
+#[derive(Clone, Debug, Serialize)]
+pub struct Verdict {
+    pub planner: String,
+    pub runs: usize,
+    pub failed: usize,
+    pub mean_completeness: f64,
+    pub mean_path_length_m: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Failure {
+    pub scene: String,
+    pub planner: String,
+    pub seed: u64,
+    pub error: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// The planner r_ε is relative to (None when no run of it succeeded).
+    pub reference: Option<String>,
+    pub cells: Vec<Cell>,
+    pub verdicts: Vec<Verdict>,
+    pub failures: Vec<Failure>,
+}
+
+/// The scene's display name: its file stem.
+pub fn scene_name(path: &str) -> String {
+    std::path::Path::new(path)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.to_string())
+}
+
+/// The name a run is grouped and shown under: its planner, followed by `@` and the first 6 digits
+/// of its config hash when `rows` mix several configs (e.g. merged batches run with different
+/// `--set`), so that different configs are never averaged together.
+pub fn run_labeller(rows: &[BenchRow]) -> impl Fn(&BenchRow) -> String {
+    let first = rows.first().map(|r| r.key.config_hash.clone());
+    let multi = rows
+        .iter()
+        .any(|r| Some(&r.key.config_hash) != first.as_ref());
+    move |r: &BenchRow| {
+        if multi {
+            let h = &r.key.config_hash;
+            format!("{}@{}", r.key.planner, &h[..h.len().min(6)])
+        } else {
+            r.key.planner.clone()
+        }
+    }
+}
+
+impl Summary {
+    /// Builds the summary of `rows`. The reference planner is `reference`, else THP, else the first
+    /// planner (by name) with a successful run.
+    pub fn of(rows: &[BenchRow], reference: Option<PlannerKind>) -> Summary {
+        let label = run_labeller(rows);
+        let mut groups: BTreeMap<(String, String), Vec<&BenchRow>> = BTreeMap::new();
+        for r in rows {
+            groups
+                .entry((r.key.scene_path.clone(), label(r)))
+                .or_default()
+                .push(r);
+        }
+        let ok_planners: Vec<String> = {
+            let mut v: Vec<String> = rows
+                .iter()
+                .filter(|r| r.status == RunStatus::Ok)
+                .map(&label)
+                .collect();
+            v.sort();
+            v.dedup();
+            v
+        };
+        let wanted = reference.unwrap_or(PlannerKind::Thp).name().to_string();
+        // With several configs, the reference is the wanted planner's first config.
+        let found = ok_planners
+            .iter()
+            .find(|l| **l == wanted || l.starts_with(&format!("{wanted}@")));
+        let reference = if let Some(found) = found {
+            Some(found.clone())
+        } else if reference.is_none() {
+            ok_planners.first().cloned()
+        } else {
+            None
+        };
+
+        let mut cells = Vec::new();
+        for ((scene, planner), runs) in &groups {
+            let ok: Vec<_> = runs
+                .iter()
+                .filter(|r| r.status == RunStatus::Ok)
+                .filter_map(|r| r.result.as_ref())
+                .collect();
+            let col = |f: &dyn Fn(&crate::sim::RunResult) -> f64| {
+                MeanStd::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>())
+            };
+            let timings_ms = STAGES
+                .iter()
+                .map(|s| {
+                    let v = col(&|r| r.timings_ms.get(*s).map_or(0.0, |t| t.mean));
+                    (s.to_string(), v.mean)
+                })
+                .collect();
+            cells.push(Cell {
+                scene: scene.clone(),
+                planner: planner.clone(),
+                runs: runs.len(),
+                failed: runs.len() - ok.len(),
+                explored_volume_m3: col(&|r| r.explored_volume_m3),
+                r_epsilon: None,
+                path_length_m: col(&|r| r.path_length_m),
+                completeness: col(&|r| r.completeness),
+                sim_time_s: col(&|r| r.sim_time_s),
+                collisions: ok.iter().map(|r| r.collisions).sum(),
+                timings_ms,
+            });
+        }
+        // r_ε: this cell's mean ε over the reference cell's on the same scene.
+        let ref_eps: BTreeMap<String, f64> = cells
+            .iter()
+            .filter(|c| Some(&c.planner) == reference.as_ref() && c.runs > c.failed)
+            .map(|c| (c.scene.clone(), c.explored_volume_m3.mean))
+            .collect();
+        for c in &mut cells {
+            if c.runs > c.failed {
+                c.r_epsilon = ref_eps
+                    .get(&c.scene)
+                    .filter(|&&e| e > 0.0)
+                    .map(|e| c.explored_volume_m3.mean / e);
+            }
+        }
+
+        let mut planners: Vec<&String> = groups.keys().map(|(_, p)| p).collect();
+        planners.sort();
+        planners.dedup();
+        let verdicts = planners
+            .into_iter()
+            .map(|p| {
+                let runs: Vec<&BenchRow> = rows.iter().filter(|r| &label(r) == p).collect();
+                let ok: Vec<_> = runs
+                    .iter()
+                    .filter(|r| r.status == RunStatus::Ok)
+                    .filter_map(|r| r.result.as_ref())
+                    .collect();
+                let mean = |f: &dyn Fn(&crate::sim::RunResult) -> f64| {
+                    MeanStd::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>()).mean
+                };
+                Verdict {
+                    planner: p.clone(),
+                    runs: runs.len(),
+                    failed: runs.len() - ok.len(),
+                    mean_completeness: mean(&|r| r.completeness),
+                    mean_path_length_m: mean(&|r| r.path_length_m),
+                }
+            })
+            .collect();
+        let failures = rows
+            .iter()
+            .filter(|r| r.status == RunStatus::Failed)
+            .map(|r| Failure {
+                scene: r.key.scene_path.clone(),
+                planner: label(r),
+                seed: r.key.seed,
+                error: r.error.clone().unwrap_or_default(),
+            })
+            .collect();
+        Summary {
+            reference,
+            cells,
+            verdicts,
+            failures,
+        }
+    }
+
+    pub fn to_markdown(&self) -> String {
+        let pm =
+            |m: MeanStd, digits: usize| format!("{:.*} ± {:.*}", digits, m.mean, digits, m.std);
+        let mut s = String::from("# Benchmark summary\n\n");
+        let runs: usize = self.cells.iter().map(|c| c.runs).sum();
+        let failed: usize = self.cells.iter().map(|c| c.failed).sum();
+        s.push_str(&format!(
+            "{runs} runs, {failed} failed. Mean ± sample standard deviation over seeds (successful runs).\n\n"
+        ));
+        s.push_str("## Exploration (THP Table 1)\n\n");
+        match &self.reference {
+            Some(r) => s.push_str(&format!(
+                "ε: explored volume; r_ε: ε relative to the reference planner **{r}** on the same scene; L: path length.\n\n"
+            )),
+            None => s.push_str("ε: explored volume; L: path length. r_ε: no successful run of the reference planner.\n\n"),
+        }
+        s.push_str("| scene | planner | runs | ε (m³) | r_ε | L (m) | completeness | sim time (s) | collisions |\n");
+        s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
+        for c in &self.cells {
+            let ok = c.runs - c.failed;
+            let runs = if c.failed > 0 {
+                format!("{ok}/{} ({} failed)", c.runs, c.failed)
+            } else {
+                format!("{}", c.runs)
+            };
+            if ok == 0 {
+                s.push_str(&format!(
+                    "| {} | {} | {runs} | — | — | — | — | — | — |\n",
+                    scene_name(&c.scene),
+                    c.planner
+                ));
+                continue;
+            }
+            s.push_str(&format!(
+                "| {} | {} | {runs} | {} | {} | {} | {} | {} | {} |\n",
+                scene_name(&c.scene),
+                c.planner,
+                pm(c.explored_volume_m3, 1),
+                c.r_epsilon.map_or("—".into(), |r| format!("{r:.3}")),
+                pm(c.path_length_m, 1),
+                pm(c.completeness, 3),
+                pm(c.sim_time_s, 0),
+                c.collisions
+            ));
+        }
+        s.push_str("\n## Stage timings (THP Table 2)\n\nMean wall time per simulation step, ms (mean over runs of each run's mean).\n\n| scene | planner |");
+        for st in STAGES {
+            s.push_str(&format!(" {st} |"));
+        }
+        s.push_str(" total |\n|---|---|");
+        s.push_str(&"---:|".repeat(STAGES.len() + 1));
+        s.push('\n');
+        for c in self.cells.iter().filter(|c| c.runs > c.failed) {
+            s.push_str(&format!("| {} | {} |", scene_name(&c.scene), c.planner));
+            let mut total = 0.0;
+            for st in STAGES {
+                let v = c.timings_ms.get(st).copied().unwrap_or(0.0);
+                total += v;
+                s.push_str(&format!(" {v:.3} |"));
+            }
+            s.push_str(&format!(" {total:.3} |\n"));
+        }
+        s.push_str("\n## Verdict\n\n");
+        for v in &self.verdicts {
+            if v.failed == v.runs {
+                s.push_str(&format!(
+                    "- **{}**: no successful run, {}/{} runs failed\n",
+                    v.planner, v.failed, v.runs
+                ));
+            } else {
+                s.push_str(&format!(
+                    "- **{}**: mean completeness {:.3}, mean L {:.1} m, {}/{} runs failed\n",
+                    v.planner, v.mean_completeness, v.mean_path_length_m, v.failed, v.runs
+                ));
+            }
+        }
+        if !self.failures.is_empty() {
+            s.push_str("\n## Failures\n\n");
+            for f in &self.failures {
+                s.push_str(&format!(
+                    "- {} / {} / seed {}: {}\n",
+                    scene_name(&f.scene),
+                    f.planner,
+                    f.seed,
+                    f.error.replace('\n', " ")
+                ));
+            }
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_std_known_answer() {
+        let m = MeanStd::of(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
+        assert_eq!(m.mean, 5.0);
+        assert!((m.std - (32.0f64 / 7.0).sqrt()).abs() < 1e-12);
+        assert_eq!(
+            MeanStd::of(&[3.0]),
+            MeanStd {
+                mean: 3.0,
+                std: 0.0
+            }
+        );
+        assert_eq!(MeanStd::of(&[]), MeanStd::default());
+    }
+
+    fn row(planner: &str, config_hash: &str, eps: Option<f64>) -> BenchRow {
+        let key = super::super::RunKey {
+            scene_path: "scenes/a.obj".into(),
+            scene_hash: "h".into(),
+            planner: planner.into(),
+            seed: 1,
+            config_hash: config_hash.into(),
+        };
+        match eps {
+            None => BenchRow::failed(key, "boom".into()),
+            Some(e) => {
+                let json = format!(
+                    r#"{{"scene":"a","scene_hash":"h","planner":"{planner}","seed":1,
+                    "spawn":{{"x":0,"y":0,"yaw":0}},"termination":"complete","completeness":0.5,
+                    "explored_volume_m3":{e},"explorable_volume_m3":10,"surface_coverage":0.5,
+                    "path_length_m":3,"sim_time_s":10,"wall_time_s":1,"real_time_factor":10,
+                    "collisions":0,"steps":100,"replans":1,"astar_calls":1,"timings_ms":{{}},
+                    "version":"0","config_hash":"{config_hash}","curve":[]}}"#
+                );
+                BenchRow {
+                    key,
+                    status: super::super::RunStatus::Ok,
+                    error: None,
+                    result: Some(serde_json::from_str(&json).unwrap()),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn r_epsilon_is_relative_to_the_reference() {
+        let rows = [
+            row("greedy", "c1", Some(4.0)),
+            row("thp", "c1", Some(8.0)),
+            row("nbv", "c1", None),
+        ];
+        let s = Summary::of(&rows, None);
+        assert_eq!(s.reference.as_deref(), Some("thp"));
+        let r: Vec<_> = s
+            .cells
+            .iter()
+            .map(|c| (c.planner.as_str(), c.r_epsilon))
+            .collect();
+        assert_eq!(
+            r,
+            [("greedy", Some(0.5)), ("nbv", None), ("thp", Some(1.0))]
+        );
+        // An explicit reference with no successful run gives no ratios.
+        let s = Summary::of(&rows, Some(PlannerKind::Nbv));
+        assert_eq!(s.reference, None);
+        assert!(s.cells.iter().all(|c| c.r_epsilon.is_none()));
+        assert_eq!(s.failures.len(), 1);
+        assert!(s
+            .to_markdown()
+            .contains("- **nbv**: no successful run, 1/1 runs failed"));
+    }
+
+    #[test]
+    fn different_configs_are_kept_apart() {
+        let rows = [
+            row("greedy", "aaaaaaaa11", Some(4.0)),
+            row("greedy", "bbbbbbbb22", Some(6.0)),
+        ];
+        let s = Summary::of(&rows, None);
+        assert_eq!(s.reference.as_deref(), Some("greedy@aaaaaa"));
+        let r: Vec<_> = s
+            .cells
+            .iter()
+            .map(|c| (c.planner.as_str(), c.r_epsilon))
+            .collect();
+        assert_eq!(
+            r,
+            [("greedy@aaaaaa", Some(1.0)), ("greedy@bbbbbb", Some(1.5))]
+        );
+    }
+
+    #[test]
+    fn scene_names_are_stems() {
+        assert_eq!(scene_name("scenes/office_large.obj"), "office_large");
+    }
+}
