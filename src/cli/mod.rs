@@ -2,6 +2,7 @@
 
 mod explore;
 mod field;
+mod replay;
 mod scene;
 
 use anyhow::Result;
@@ -40,6 +41,11 @@ tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2
 tensorscout field --scene scenes/small_house.obj --json --reference"
     )]
     Field(field::FieldArgs),
+    /// Summarise, verify or draw a run log written by `explore --log`.
+    #[command(
+        after_help = "Examples:\n  tensorscout replay run.mcap --json\n  tensorscout replay run.mcap --verify"
+    )]
+    Replay(replay::ReplayArgs),
     /// Print configuration.
     #[command(subcommand)]
     Config(ConfigCommand),
@@ -74,6 +80,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Explore(args) => explore::run(args),
         Command::Scene(cmd) => scene::run(cmd),
         Command::Field(args) => field::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::Config(ConfigCommand::Default) => {
             print!("{}", tensorscout::config::DEFAULT_TOML);
             Ok(())
