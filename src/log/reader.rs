@@ -64,6 +64,9 @@ pub fn read_log(path: &Path) -> Result<LogContents> {
 
 /// [`read_log`] on bytes in memory.
 pub fn read_log_bytes(bytes: &[u8]) -> std::result::Result<LogContents, String> {
+    if !bytes.starts_with(mcap::MAGIC) {
+        return Err("not an MCAP file (no MCAP magic at the start)".into());
+    }
     let options = mcap::read::Options::IgnoreEndMagic.into();
     let reader = mcap::read::LinearReader::new_with_options(bytes, options)
         .map_err(|e| format!("not an MCAP file ({e})"))?;
