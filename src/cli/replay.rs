@@ -4,7 +4,7 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 use tensorscout::log::read_log;
-use tensorscout::log::replay::{summarise, verify};
+use tensorscout::log::replay::{render, summarise, verify};
 use tensorscout::Error;
 
 #[derive(Args)]
@@ -15,12 +15,30 @@ pub struct ReplayArgs {
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
+    /// Write PNG frames and `overview.png` into this folder.
+    #[arg(long, value_name = "DIR")]
+    render: Option<PathBuf>,
+    /// Simulated seconds between rendered frames.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 10.0,
+        requires = "render"
+    )]
+    every: f64,
     /// Re-run from the recorded scene, config and seed and compare every message.
     #[arg(long)]
     verify: bool,
 }
 
 pub fn run(args: ReplayArgs) -> Result<()> {
+    if !(args.every.is_finite() && args.every > 0.0) {
+        return Err(Error::usage(format!(
+            "--every must be a positive number of seconds, got {}",
+            args.every
+        ))
+        .into());
+    }
     let log = read_log(&args.log)?;
     let summary = summarise(&log);
     if args.json {
@@ -58,6 +76,13 @@ pub fn run(args: ReplayArgs) -> Result<()> {
         for (topic, n) in &summary.messages {
             println!("  {topic:<18} {n} messages");
         }
+    }
+    if let Some(dir) = &args.render {
+        let frames = render(&log, dir, args.every)?;
+        eprintln!(
+            "wrote {frames} frames and overview.png to {}",
+            dir.display()
+        );
     }
     if log.is_damaged() {
         return Err(Error::Runtime(format!(

@@ -234,3 +234,164 @@ mod tests {
         assert_eq!(first_difference(&a, &c, ""), None);
     }
 }
+
+/// A `/map/grid` message decoded: its grid and the `state` code of every cell.
+struct LoggedGrid {
+    grid: crate::GridSpec,
+    state: Vec<f32>,
+}
+
+fn decode_grid(v: &Value) -> Option<LoggedGrid> {
+    let nx = v["column_count"].as_u64()? as usize;
+    let row_stride = v["row_stride"].as_u64()? as usize;
+    let cell_stride = v["cell_stride"].as_u64()? as usize;
+    let data = super::base64_decode(v["data"].as_str()?)?;
+    if nx == 0 || row_stride < nx * cell_stride || cell_stride < 4 || data.len() % row_stride != 0 {
+        return None;
+    }
+    let ny = data.len() / row_stride;
+    let grid = crate::GridSpec {
+        origin_x: v["pose"]["position"]["x"].as_f64()?,
+        origin_y: v["pose"]["position"]["y"].as_f64()?,
+        res: v["cell_size"]["x"].as_f64()?,
+        nx,
+        ny,
+        nz: 1,
+    };
+    let state = (0..nx * ny)
+        .map(|i| {
+            let at = (i / nx) * row_stride + (i % nx) * cell_stride;
+            f32::from_le_bytes(data[at..at + 4].try_into().expect("4 bytes"))
+        })
+        .collect();
+    Some(LoggedGrid { grid, state })
+}
+
+/// Coloured points of a `/plan/frontiers` message.
+fn decode_frontiers(v: &Value) -> Vec<(nalgebra::Point2<f64>, image::Rgb<u8>)> {
+    let spheres = v["entities"][0]["spheres"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    spheres
+        .iter()
+        .filter_map(|s| {
+            let p = &s["pose"]["position"];
+            let c = &s["color"];
+            let ch = |k: &str| (c[k].as_f64().unwrap_or(0.0) * 255.0).round() as u8;
+            Some((
+                nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?),
+                image::Rgb([ch("r"), ch("g"), ch("b")]),
+            ))
+        })
+        .collect()
+}
+
+/// Points of the line strip in a `/plan/path` message.
+fn decode_path(v: &Value) -> Vec<nalgebra::Point2<f64>> {
+    let points = v["entities"][0]["lines"][0]["points"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    points
+        .iter()
+        .filter_map(|p| Some(nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?)))
+        .collect()
+}
+
+fn decode_pose(v: &Value) -> Option<Pose2> {
+    let p = &v["pose"]["position"];
+    let q = &v["pose"]["orientation"];
+    let yaw = 2.0 * q["z"].as_f64()?.atan2(q["w"].as_f64()?);
+    Some(Pose2::new(p["x"].as_f64()?, p["y"].as_f64()?, yaw))
+}
+
+/// The decoded messages of `topic` with their times, in time order.
+fn decoded<T>(log: &LogContents, topic: &Topic, f: impl Fn(&Value) -> Option<T>) -> Vec<(u64, T)> {
+    log.topic(topic.name)
+        .filter_map(|m| {
+            let v: Value = serde_json::from_slice(&m.data).ok()?;
+            Some((m.log_time_ns, f(&v)?))
+        })
+        .collect()
+}
+
+/// The last item at or before `t_ns`.
+fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
+    let n = items.partition_point(|(t, _)| *t <= t_ns);
+    n.checked_sub(1).map(|i| &items[i].1)
+}
+
+/// Writes `frame_NNNN.png` every `every_s` simulated seconds and `overview.png`: the latest map
+/// key frame (unknown grey, free white, obstacles black, frontier cells orange), frontiers coloured
+/// by group, the A* path, the driven path, and the robot with its camera frustum. Returns the
+/// number of frames written. The field and tour layers join when the field planners log them.
+pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
+    use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
+    use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
+    let grids = decoded(log, &topics::MAP_GRID, decode_grid);
+    let poses = decoded(log, &topics::POSE, decode_pose);
+    let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_frontiers(v)));
+    let paths = decoded(log, &topics::PLAN_PATH, |v| Some(decode_path(v)));
+    let Some(end_ns) = poses.last().map(|p| p.0) else {
+        return Err(Error::Runtime("the log has no poses to draw".into()));
+    };
+    let cfg: Option<Config> = log
+        .identity
+        .as_ref()
+        .and_then(|id| toml::from_str(&id.config_toml).ok());
+    let (hfov, range) = cfg
+        .as_ref()
+        .map_or((58f64, 5.0), |c| (c.camera.hfov_deg, c.camera.max_range_m));
+    let draw = |t_ns: u64, with_plan: bool| -> Option<Canvas> {
+        let g = latest(&grids, t_ns)?;
+        let mut canvas = Canvas::new(g.grid, UNKNOWN);
+        canvas.paint_cells(|i| match g.state[i] {
+            s if s == GRID_OBSTACLE => Some(OCCUPIED),
+            s if s == GRID_FRONTIER => Some(FRONTIER),
+            s if s == GRID_FREE => Some(FREE),
+            _ => None,
+        });
+        let cell_px = canvas.scale as f64;
+        if with_plan {
+            for (p, c) in latest(&frontiers, t_ns).into_iter().flatten() {
+                canvas.disc(*p, (cell_px * 0.6).max(1.5), *c);
+            }
+            if let Some(path) = latest(&paths, t_ns) {
+                canvas.polyline(path, 2.0, image::Rgb([150, 40, 200]));
+            }
+        }
+        let n = poses.partition_point(|(t, _)| *t <= t_ns);
+        let driven: Vec<_> = poses[..n].iter().map(|(_, p)| p.position()).collect();
+        canvas.polyline(&driven, 2.0, PATH);
+        if let (Some(first), Some((_, pose))) =
+            (driven.first(), n.checked_sub(1).map(|i| &poses[i]))
+        {
+            let r = (0.25 / g.grid.res * cell_px).max(3.0);
+            canvas.disc(*first, r, START);
+            let half = hfov.to_radians() / 2.0;
+            let ray = |a: f64| pose.position() + nalgebra::Vector2::new(a.cos(), a.sin()) * range;
+            let (left, right) = (ray(pose.yaw + half), ray(pose.yaw - half));
+            canvas.line(pose.position(), left, 1.0, END);
+            canvas.line(pose.position(), right, 1.0, END);
+            canvas.line(left, right, 1.0, END);
+            canvas.disc(pose.position(), r, END);
+        }
+        Some(canvas)
+    };
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let step_ns = super::record::time_ns(every_s).max(1);
+    let mut frames = 0;
+    let mut t = 0;
+    while t <= end_ns {
+        if let Some(c) = draw(t, true) {
+            c.save(&dir.join(format!("frame_{frames:04}.png")))?;
+            frames += 1;
+        }
+        t += step_ns;
+    }
+    draw(end_ns, false)
+        .ok_or_else(|| Error::Runtime("the log has no map key frame to draw".into()))?
+        .save(&dir.join("overview.png"))?;
+    Ok(frames)
+}
