@@ -124,6 +124,24 @@ fn log_replays_verifies_and_is_never_overwritten() {
     );
 
     python_check(&log, &s["messages"]);
+
+    // Pictures: one frame per 10 s of the run (key frames start at the first step) and an overview.
+    let pics = dir.path().join("pics");
+    let r = replay(&log, &["--render", pics.to_str().unwrap(), "--every", "10"]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let sim_time = result["sim_time_s"].as_f64().unwrap();
+    let frames = std::fs::read_dir(&pics)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with("frame_")
+        })
+        .count();
+    assert_eq!(frames, (sim_time / 10.0).floor() as usize);
+    assert!(pics.join("overview.png").is_file());
 }
 
 /// Decodes every message with the PyPI `mcap` reader and compares counts per topic (skipped, with

@@ -220,21 +220,6 @@ fn parse_spawn(s: &str) -> Option<Pose2> {
     (v.len() == 3).then(|| Pose2::new(v[0], v[1], v[2]))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use serde_json::json;
-
-    #[test]
-    fn first_difference_names_the_field_and_ignores_stage_ms() {
-        let a = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 1.0}});
-        let b = json!({"x": 1, "p": {"y": [1, 3]}, "stage_ms": {"sense": 2.0}});
-        assert_eq!(first_difference(&a, &b, ""), Some("/p/y/1".into()));
-        let c = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 9.0}});
-        assert_eq!(first_difference(&a, &c, ""), None);
-    }
-}
-
 /// A `/map/grid` message decoded: its grid and the `state` code of every cell.
 struct LoggedGrid {
     grid: crate::GridSpec,
@@ -394,4 +379,19 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
         .ok_or_else(|| Error::Runtime("the log has no map key frame to draw".into()))?
         .save(&dir.join("overview.png"))?;
     Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn first_difference_names_the_field_and_ignores_stage_ms() {
+        let a = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 1.0}});
+        let b = json!({"x": 1, "p": {"y": [1, 3]}, "stage_ms": {"sense": 2.0}});
+        assert_eq!(first_difference(&a, &b, ""), Some("/p/y/1".into()));
+        let c = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 9.0}});
+        assert_eq!(first_difference(&a, &c, ""), None);
+    }
 }
