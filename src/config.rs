@@ -25,6 +25,18 @@ pub struct Config {
     pub search: SearchConfig,
     pub greedy: GreedyConfig,
     pub field: FieldConfig,
+    pub log: LogConfig,
+}
+
+/// What `explore --log` writes and how often (see `src/log`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LogConfig {
+    pub depth_every_n: u64,
+    pub map_every_s: f64,
+    pub field: bool,
+    pub zstd_level: u32,
+    pub chunk_size_kb: u64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -226,6 +238,18 @@ impl Config {
         positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
         non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
         positive("sim.curve_interval_s", self.sim.curve_interval_s)?;
+        positive("log.map_every_s", self.log.map_every_s)?;
+        if !(1..=19).contains(&self.log.zstd_level) {
+            return Err(Error::usage(format!(
+                "config key `log.zstd_level` must be 1..=19, got {}",
+                self.log.zstd_level
+            )));
+        }
+        if self.log.chunk_size_kb == 0 {
+            return Err(Error::usage(
+                "config key `log.chunk_size_kb` must be positive, got 0",
+            ));
+        }
         positive("scene.wall_height_m", self.scene.wall_height_m)?;
         positive("scene.max_extent_m", self.scene.max_extent_m)?;
         positive("map.voxel_m", self.map.voxel_m)?;

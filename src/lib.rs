@@ -11,6 +11,7 @@ pub mod config;
 pub mod error;
 pub mod field;
 pub mod grid;
+pub mod log;
 pub mod map;
 pub mod plan;
 pub mod render;

@@ -6,8 +6,13 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use tensorscout::log::{Recorder, RunIdentity, RunLog};
+use tensorscout::map::Map;
+use tensorscout::plan::Action;
 use tensorscout::plan::PlannerKind;
-use tensorscout::sim::{self, Observer, StepView, World};
+use tensorscout::sim::{self, Observer, RunResult, StepView, World};
 use tensorscout::{render, scene, Pose2};
 
 #[derive(Args)]
@@ -29,6 +34,9 @@ pub struct ExploreArgs {
     /// Draw the final map, the path, the start and the end into this PNG.
     #[arg(long, value_name = "PATH")]
     png: Option<PathBuf>,
+    /// Log the run to this MCAP file (opens in Foxglove; see `tensorscout replay`).
+    #[arg(long, value_name = "PATH.mcap")]
+    log: Option<PathBuf>,
     /// Print exactly one JSON object with every metric on stdout.
     #[arg(long)]
     json: bool,
@@ -38,6 +46,36 @@ pub struct ExploreArgs {
     /// Overwrite output files that already exist.
     #[arg(long)]
     force: bool,
+}
+
+/// Forwards to up to two observers (the log and the progress bar).
+struct Both<'a>(Option<&'a mut dyn Observer>, Option<&'a mut dyn Observer>);
+
+impl Observer for Both<'_> {
+    fn on_step(&mut self, view: &StepView) {
+        self.0
+            .iter_mut()
+            .chain(self.1.iter_mut())
+            .for_each(|o| o.on_step(view));
+    }
+    fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map) {
+        self.0
+            .iter_mut()
+            .chain(self.1.iter_mut())
+            .for_each(|o| o.on_plan(time_s, action, map));
+    }
+    fn on_finish(&mut self, result: &RunResult) {
+        self.0
+            .iter_mut()
+            .chain(self.1.iter_mut())
+            .for_each(|o| o.on_finish(result));
+    }
+    fn stop_requested(&self) -> bool {
+        self.0
+            .iter()
+            .chain(self.1.iter())
+            .any(|o| o.stop_requested())
+    }
 }
 
 /// Shows simulated time and completeness on stderr.
@@ -65,12 +103,43 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     if let Some(png) = &args.png {
         check_output(png, args.force)?;
     }
+    if let Some(log) = &args.log {
+        check_output(log, args.force)?;
+    }
     // Fail on an unavailable planner before the scene is loaded.
     args.planner.build(&cfg)?;
     let scene = scene::load(&args.scene, &cfg.scene)?;
     let world = World::new(&scene, &cfg, args.spawn)?;
 
-    let output = if !args.quiet && std::io::stderr().is_terminal() {
+    let mut logger = match &args.log {
+        Some(path) => {
+            let identity = RunIdentity {
+                scene_path: args.scene.display().to_string(),
+                scene_hash: scene.content_hash.clone(),
+                planner: args.planner.name().to_string(),
+                seed: cfg.seed,
+                version: tensorscout::VERSION.to_string(),
+                config_hash: cfg.hash(),
+                config_toml: cfg.to_toml(),
+                spawn: args
+                    .spawn
+                    .map(|p| format!("{},{},{}", p.x, p.y, p.yaw))
+                    .unwrap_or_default(),
+            };
+            let stop = Arc::new(AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+                signal_hook::flag::register(signal, Arc::clone(&stop))
+                    .map_err(|e| tensorscout::Error::Runtime(format!("signal handler: {e}")))?;
+            }
+            Some(Recorder::new(
+                RunLog::create(path, &identity, &cfg.log)?,
+                &cfg.log,
+                Some(stop),
+            ))
+        }
+        None => None,
+    };
+    let mut progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let bar = ProgressBar::new(cfg.sim.budget_s as u64);
         bar.set_style(
             ProgressStyle::with_template(
@@ -78,14 +147,21 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             )
             .expect("valid template"),
         );
-        let mut progress = Progress { bar };
-        let out = sim::run(&scene, world, &cfg, args.planner, &mut progress);
-        progress.bar.finish_and_clear();
-        out?
-    } else {
-        sim::run(&scene, world, &cfg, args.planner, &mut sim::NoObserver)?
-    };
-
+        Progress { bar }
+    });
+    let mut both = Both(
+        logger.as_mut().map(|l| l as &mut dyn Observer),
+        progress.as_mut().map(|p| p as &mut dyn Observer),
+    );
+    let output = sim::run(&scene, world, &cfg, args.planner, &mut both);
+    if let Some(p) = &progress {
+        p.bar.finish_and_clear();
+    }
+    // The log is finished (summary section written) whatever the run's outcome.
+    if let Some(l) = logger {
+        l.sink.close()?;
+    }
+    let output = output?;
     if let Some(png) = &args.png {
         render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
     }

@@ -3,6 +3,7 @@
 mod bench;
 mod explore;
 mod field;
+mod replay;
 mod scene;
 
 use anyhow::Result;
@@ -48,6 +49,11 @@ tensorscout bench --scenes scenes/ --seeds 3 --out shard1 --shard 1/2\n  \
 tensorscout bench merge shard1 shard2 --out bench_out"
     )]
     Bench(bench::BenchArgs),
+    /// Summarise, verify or draw a run log written by `explore --log`.
+    #[command(
+        after_help = "Examples:\n  tensorscout replay run.mcap --json\n  tensorscout replay run.mcap --verify"
+    )]
+    Replay(replay::ReplayArgs),
     /// Print configuration.
     #[command(subcommand)]
     Config(ConfigCommand),
@@ -89,6 +95,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Scene(cmd) => scene::run(cmd),
         Command::Field(args) => field::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::Config(ConfigCommand::Default) => {
             print!("{}", tensorscout::config::DEFAULT_TOML);
             Ok(())

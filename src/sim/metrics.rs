@@ -19,6 +19,8 @@ pub enum Termination {
     Stuck,
     /// The run failed; see `error`.
     Error,
+    /// Stopped early on request (SIGINT/SIGTERM); the results cover the steps run so far.
+    Interrupted,
 }
 
 impl Termination {
@@ -28,6 +30,7 @@ impl Termination {
             Termination::Budget => "budget",
             Termination::Stuck => "stuck",
             Termination::Error => "error",
+            Termination::Interrupted => "interrupted",
         }
     }
 }
@@ -200,5 +203,9 @@ mod tests {
             "\"budget\""
         );
         assert_eq!(Termination::Stuck.as_str(), "stuck");
+        assert_eq!(
+            serde_json::to_string(&Termination::Interrupted).unwrap(),
+            "\"interrupted\""
+        );
     }
 }

@@ -24,11 +24,24 @@ pub struct StepView<'a> {
     pub path_length_m: f64,
     pub frame: Option<&'a DepthFrame>,
     pub map: &'a Map,
+    pub explored_volume_m3: f64,
+    pub collisions: u64,
+    pub replans: u64,
+    /// Wall time of this step's stages (see `metrics::STAGES`), milliseconds: not deterministic.
+    pub stage_ms: [f64; 5],
 }
 
 /// Receives every step of a run; all methods default to doing nothing.
 pub trait Observer {
     fn on_step(&mut self, _view: &StepView) {}
+    /// Called when the planner chose a new action (after `on_step` of the same step, if any).
+    fn on_plan(&mut self, _time_s: f64, _action: &Action, _map: &Map) {}
+    /// Called once with the result, after the loop ended.
+    fn on_finish(&mut self, _result: &RunResult) {}
+    /// Checked every step: `true` ends the run with `Termination::Interrupted`.
+    fn stop_requested(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that ignores everything.
@@ -120,6 +133,10 @@ pub fn run(
     });
 
     while step < total_steps {
+        if observer.stop_requested() {
+            termination = Termination::Interrupted;
+            break;
+        }
         let time_s = step as f64 / steps_per_s;
         // Sense.
         let t0 = Instant::now();
@@ -157,6 +174,7 @@ pub fn run(
                         termination = Termination::Complete;
                     }
                     Ok(a) => {
+                        observer.on_plan(time_s, &a, &map);
                         action = a;
                         motion.start(&action);
                         need_plan = false;
@@ -230,6 +248,10 @@ pub fn run(
             path_length_m: robot.path_length_m,
             frame: fired.then_some(&frame),
             map: &map,
+            explored_volume_m3: volume,
+            collisions,
+            replans,
+            stage_ms: stage_ms([t0, t1, t2, t3, t4, t5]),
         });
         if step - last_gain_step >= stuck_steps {
             termination = Termination::Stuck;
@@ -276,6 +298,7 @@ pub fn run(
         config_hash: cfg.hash(),
         curve,
     };
+    observer.on_finish(&result);
     Ok(RunOutput {
         result,
         map,
@@ -286,7 +309,12 @@ pub fn run(
 
 /// Records the five stage durations delimited by six instants.
 fn record(times: &mut StageTimes, t: [Instant; 6]) {
-    for stage in 0..5 {
-        times.record(stage, (t[stage + 1] - t[stage]).as_secs_f64() * 1e3);
+    for (stage, ms) in stage_ms(t).into_iter().enumerate() {
+        times.record(stage, ms);
     }
+}
+
+/// The five stage durations delimited by six instants, milliseconds.
+fn stage_ms(t: [Instant; 6]) -> [f64; 5] {
+    std::array::from_fn(|stage| (t[stage + 1] - t[stage]).as_secs_f64() * 1e3)
 }

@@ -1,0 +1,397 @@
+//! `replay`: a log's summary, its exact re-run check, and pictures.
+
+use super::reader::LogContents;
+use super::record::{Recorder, Sink};
+use super::topics::{self, Topic};
+use super::RunIdentity;
+use crate::plan::PlannerKind;
+use crate::sim::{self, RunResult, World};
+use crate::{Config, Error, Pose2, Result};
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Metrics at one fraction of the run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Milestone {
+    pub fraction: f64,
+    pub time_s: f64,
+    pub completeness: f64,
+    pub path_length_m: f64,
+}
+
+/// What `replay` prints.
+#[derive(Debug, Serialize)]
+pub struct ReplaySummary {
+    pub identity: Option<RunIdentity>,
+    /// The recorded final result (absent when the run did not finish its file).
+    pub result: Option<RunResult>,
+    pub milestones: Vec<Milestone>,
+    pub messages: BTreeMap<String, u64>,
+    pub chunks_read: u64,
+    pub chunks_lost: u64,
+    pub messages_lost: u64,
+    pub complete: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub problem: Option<String>,
+}
+
+/// The `/metrics` messages decoded, in time order (undecodable ones skipped).
+fn metrics(log: &LogContents) -> Vec<Value> {
+    log.topic(topics::METRICS.name)
+        .filter_map(|m| serde_json::from_slice(&m.data).ok())
+        .collect()
+}
+
+/// Completeness and path length at 25, 50, 75 and 100 % of the recorded simulated time (the last
+/// `/metrics` sample at or before each fraction).
+pub fn milestones(log: &LogContents) -> Vec<Milestone> {
+    let samples = metrics(log);
+    let Some(end) = samples.last().and_then(|m| m["time_s"].as_f64()) else {
+        return Vec::new();
+    };
+    [0.25, 0.5, 0.75, 1.0]
+        .iter()
+        .filter_map(|&f| {
+            let t = end * f;
+            let m = samples
+                .iter()
+                .take_while(|m| m["time_s"].as_f64().unwrap_or(f64::MAX) <= t + 1e-9)
+                .last()?;
+            Some(Milestone {
+                fraction: f,
+                time_s: m["time_s"].as_f64()?,
+                completeness: m["completeness"].as_f64()?,
+                path_length_m: m["path_length_m"].as_f64()?,
+            })
+        })
+        .collect()
+}
+
+pub fn summarise(log: &LogContents) -> ReplaySummary {
+    ReplaySummary {
+        identity: log.identity.clone(),
+        result: log.result.clone(),
+        milestones: milestones(log),
+        messages: log.counts(),
+        chunks_read: log.chunks_read,
+        chunks_lost: log.chunks_lost,
+        messages_lost: log.messages_lost,
+        complete: log.complete,
+        problem: log.problem.clone(),
+    }
+}
+
+/// The first place a re-run differs from the log.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Divergence {
+    pub time_s: f64,
+    pub topic: String,
+    /// JSON pointer of the first differing field, or what is missing.
+    pub field: String,
+}
+
+/// Compares a re-run's messages with the recorded ones, in order; keeps the first divergence.
+struct Comparer<'a> {
+    recorded: Vec<&'a super::LoggedMessage>,
+    next: usize,
+    divergence: Option<Divergence>,
+}
+
+/// JSON pointer of the first difference between `a` and `b` (ignoring wall-clock `stage_ms`).
+fn first_difference(a: &Value, b: &Value, at: &str) -> Option<String> {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            for (k, va) in x {
+                if k == "stage_ms" {
+                    continue;
+                }
+                match y.get(k) {
+                    Some(vb) => {
+                        if let Some(d) = first_difference(va, vb, &format!("{at}/{k}")) {
+                            return Some(d);
+                        }
+                    }
+                    None => return Some(format!("{at}/{k}")),
+                }
+            }
+            y.keys()
+                .find(|k| !x.contains_key(*k))
+                .map(|k| format!("{at}/{k}"))
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            if x.len() != y.len() {
+                return Some(format!("{at} (length {} vs {})", x.len(), y.len()));
+            }
+            x.iter()
+                .zip(y)
+                .enumerate()
+                .find_map(|(i, (p, q))| first_difference(p, q, &format!("{at}/{i}")))
+        }
+        _ => (a != b).then(|| if at.is_empty() { "/".into() } else { at.into() }),
+    }
+}
+
+impl Sink for Comparer<'_> {
+    fn put(&mut self, topic: &'static Topic, time_ns: u64, message: Vec<u8>) {
+        if self.divergence.is_some() {
+            return;
+        }
+        let time_s = time_ns as f64 * 1e-9;
+        let Some(rec) = self.recorded.get(self.next) else {
+            self.divergence = Some(Divergence {
+                time_s,
+                topic: topic.name.into(),
+                field: "message missing from the log (re-run is longer)".into(),
+            });
+            return;
+        };
+        self.next += 1;
+        let field = if rec.topic != topic.name {
+            Some(format!("topic (log has {} here)", rec.topic))
+        } else if rec.log_time_ns != time_ns {
+            Some(format!("log time (log has {} ns)", rec.log_time_ns))
+        } else if rec.data == message {
+            None
+        } else {
+            let a: Value = serde_json::from_slice(&rec.data).unwrap_or(Value::Null);
+            let b: Value = serde_json::from_slice(&message).unwrap_or(Value::Null);
+            first_difference(&a, &b, "")
+        };
+        if let Some(field) = field {
+            self.divergence = Some(Divergence {
+                time_s,
+                topic: topic.name.into(),
+                field,
+            });
+        }
+    }
+}
+
+/// Re-runs the logged run from its recorded scene, config and seed and compares every message
+/// (poses, depth, grids, plans, metrics apart from wall-clock `stage_ms`). `Ok(None)` = identical.
+pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
+    let id = log
+        .identity
+        .as_ref()
+        .ok_or_else(|| Error::Runtime("the log has no run identity metadata".into()))?;
+    let cfg: Config = toml::from_str(&id.config_toml)
+        .map_err(|e| Error::Runtime(format!("the log's config does not parse: {e}")))?;
+    cfg.validate()?;
+    let planner = <PlannerKind as clap::ValueEnum>::from_str(&id.planner, true)
+        .map_err(|_| Error::Runtime(format!("log names an unknown planner `{}`", id.planner)))?;
+    let scene_path = Path::new(&id.scene_path);
+    let scene = crate::scene::load(scene_path, &cfg.scene)?;
+    if scene.content_hash != id.scene_hash {
+        return Err(Error::Runtime(format!(
+            "scene {} changed: content hash {} differs from the logged {}",
+            scene_path.display(),
+            scene.content_hash,
+            id.scene_hash
+        )));
+    }
+    let spawn = parse_spawn(&id.spawn);
+    let world = World::new(&scene, &cfg, spawn)?;
+    let comparer = Comparer {
+        recorded: log.messages.iter().collect(),
+        next: 0,
+        divergence: None,
+    };
+    let mut rec = Recorder::new(comparer, &cfg.log, None);
+    sim::run(&scene, world, &cfg, planner, &mut rec)?;
+    let c = rec.sink;
+    if c.divergence.is_some() {
+        return Ok(c.divergence);
+    }
+    if let Some(extra) = c.recorded.get(c.next) {
+        return Ok(Some(Divergence {
+            time_s: extra.log_time_ns as f64 * 1e-9,
+            topic: extra.topic.clone(),
+            field: "message in the log but not in the re-run (re-run is shorter)".into(),
+        }));
+    }
+    Ok(None)
+}
+
+/// `X,Y,YAW` as stored in [`RunIdentity::spawn`].
+fn parse_spawn(s: &str) -> Option<Pose2> {
+    let v: Vec<f64> = s.split(',').filter_map(|p| p.parse().ok()).collect();
+    (v.len() == 3).then(|| Pose2::new(v[0], v[1], v[2]))
+}
+
+/// A `/map/grid` message decoded: its grid and the `state` code of every cell.
+struct LoggedGrid {
+    grid: crate::GridSpec,
+    state: Vec<f32>,
+}
+
+fn decode_grid(v: &Value) -> Option<LoggedGrid> {
+    let nx = v["column_count"].as_u64()? as usize;
+    let row_stride = v["row_stride"].as_u64()? as usize;
+    let cell_stride = v["cell_stride"].as_u64()? as usize;
+    let data = super::base64_decode(v["data"].as_str()?)?;
+    if nx == 0 || row_stride < nx * cell_stride || cell_stride < 4 || data.len() % row_stride != 0 {
+        return None;
+    }
+    let ny = data.len() / row_stride;
+    let grid = crate::GridSpec {
+        origin_x: v["pose"]["position"]["x"].as_f64()?,
+        origin_y: v["pose"]["position"]["y"].as_f64()?,
+        res: v["cell_size"]["x"].as_f64()?,
+        nx,
+        ny,
+        nz: 1,
+    };
+    let state = (0..nx * ny)
+        .map(|i| {
+            let at = (i / nx) * row_stride + (i % nx) * cell_stride;
+            f32::from_le_bytes(data[at..at + 4].try_into().expect("4 bytes"))
+        })
+        .collect();
+    Some(LoggedGrid { grid, state })
+}
+
+/// Coloured points of a `/plan/frontiers` message.
+fn decode_frontiers(v: &Value) -> Vec<(nalgebra::Point2<f64>, image::Rgb<u8>)> {
+    let spheres = v["entities"][0]["spheres"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    spheres
+        .iter()
+        .filter_map(|s| {
+            let p = &s["pose"]["position"];
+            let c = &s["color"];
+            let ch = |k: &str| (c[k].as_f64().unwrap_or(0.0) * 255.0).round() as u8;
+            Some((
+                nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?),
+                image::Rgb([ch("r"), ch("g"), ch("b")]),
+            ))
+        })
+        .collect()
+}
+
+/// Points of the line strip in a `/plan/path` message.
+fn decode_path(v: &Value) -> Vec<nalgebra::Point2<f64>> {
+    let points = v["entities"][0]["lines"][0]["points"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    points
+        .iter()
+        .filter_map(|p| Some(nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?)))
+        .collect()
+}
+
+fn decode_pose(v: &Value) -> Option<Pose2> {
+    let p = &v["pose"]["position"];
+    let q = &v["pose"]["orientation"];
+    let yaw = 2.0 * q["z"].as_f64()?.atan2(q["w"].as_f64()?);
+    Some(Pose2::new(p["x"].as_f64()?, p["y"].as_f64()?, yaw))
+}
+
+/// The decoded messages of `topic` with their times, in time order.
+fn decoded<T>(log: &LogContents, topic: &Topic, f: impl Fn(&Value) -> Option<T>) -> Vec<(u64, T)> {
+    log.topic(topic.name)
+        .filter_map(|m| {
+            let v: Value = serde_json::from_slice(&m.data).ok()?;
+            Some((m.log_time_ns, f(&v)?))
+        })
+        .collect()
+}
+
+/// The last item at or before `t_ns`.
+fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
+    let n = items.partition_point(|(t, _)| *t <= t_ns);
+    n.checked_sub(1).map(|i| &items[i].1)
+}
+
+/// Writes `frame_NNNN.png` every `every_s` simulated seconds and `overview.png`: the latest map
+/// key frame (unknown grey, free white, obstacles black, frontier cells orange), frontiers coloured
+/// by group, the A* path, the driven path, and the robot with its camera frustum. Returns the
+/// number of frames written. The field and tour layers join when the field planners log them.
+pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
+    use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
+    use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
+    let grids = decoded(log, &topics::MAP_GRID, decode_grid);
+    let poses = decoded(log, &topics::POSE, decode_pose);
+    let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_frontiers(v)));
+    let paths = decoded(log, &topics::PLAN_PATH, |v| Some(decode_path(v)));
+    let Some(end_ns) = poses.last().map(|p| p.0) else {
+        return Err(Error::Runtime("the log has no poses to draw".into()));
+    };
+    let cfg: Option<Config> = log
+        .identity
+        .as_ref()
+        .and_then(|id| toml::from_str(&id.config_toml).ok());
+    let (hfov, range) = cfg
+        .as_ref()
+        .map_or((58f64, 5.0), |c| (c.camera.hfov_deg, c.camera.max_range_m));
+    let draw = |t_ns: u64, with_plan: bool| -> Option<Canvas> {
+        let g = latest(&grids, t_ns)?;
+        let mut canvas = Canvas::new(g.grid, UNKNOWN);
+        canvas.paint_cells(|i| match g.state[i] {
+            s if s == GRID_OBSTACLE => Some(OCCUPIED),
+            s if s == GRID_FRONTIER => Some(FRONTIER),
+            s if s == GRID_FREE => Some(FREE),
+            _ => None,
+        });
+        let cell_px = canvas.scale as f64;
+        if with_plan {
+            for (p, c) in latest(&frontiers, t_ns).into_iter().flatten() {
+                canvas.disc(*p, (cell_px * 0.6).max(1.5), *c);
+            }
+            if let Some(path) = latest(&paths, t_ns) {
+                canvas.polyline(path, 2.0, image::Rgb([150, 40, 200]));
+            }
+        }
+        let n = poses.partition_point(|(t, _)| *t <= t_ns);
+        let driven: Vec<_> = poses[..n].iter().map(|(_, p)| p.position()).collect();
+        canvas.polyline(&driven, 2.0, PATH);
+        if let (Some(first), Some((_, pose))) =
+            (driven.first(), n.checked_sub(1).map(|i| &poses[i]))
+        {
+            let r = (0.25 / g.grid.res * cell_px).max(3.0);
+            canvas.disc(*first, r, START);
+            let half = hfov.to_radians() / 2.0;
+            let ray = |a: f64| pose.position() + nalgebra::Vector2::new(a.cos(), a.sin()) * range;
+            let (left, right) = (ray(pose.yaw + half), ray(pose.yaw - half));
+            canvas.line(pose.position(), left, 1.0, END);
+            canvas.line(pose.position(), right, 1.0, END);
+            canvas.line(left, right, 1.0, END);
+            canvas.disc(pose.position(), r, END);
+        }
+        Some(canvas)
+    };
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let step_ns = super::record::time_ns(every_s).max(1);
+    let mut frames = 0;
+    let mut t = 0;
+    while t <= end_ns {
+        if let Some(c) = draw(t, true) {
+            c.save(&dir.join(format!("frame_{frames:04}.png")))?;
+            frames += 1;
+        }
+        t += step_ns;
+    }
+    draw(end_ns, false)
+        .ok_or_else(|| Error::Runtime("the log has no map key frame to draw".into()))?
+        .save(&dir.join("overview.png"))?;
+    Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn first_difference_names_the_field_and_ignores_stage_ms() {
+        let a = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 1.0}});
+        let b = json!({"x": 1, "p": {"y": [1, 3]}, "stage_ms": {"sense": 2.0}});
+        assert_eq!(first_difference(&a, &b, ""), Some("/p/y/1".into()));
+        let c = json!({"x": 1, "p": {"y": [1, 2]}, "stage_ms": {"sense": 9.0}});
+        assert_eq!(first_difference(&a, &c, ""), None);
+    }
+}
