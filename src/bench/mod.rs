@@ -332,10 +332,11 @@ pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Re
     for d in dirs {
         let path = d.join(store::RESULTS_JSONL);
         if !path.is_file() {
-            return Err(Error::io(
-                &path,
-                std::io::Error::new(std::io::ErrorKind::NotFound, "no results.jsonl here"),
-            ));
+            return Err(Error::Runtime(format!(
+                "{}: not found (is {} a bench output folder?)",
+                path.display(),
+                d.display()
+            )));
         }
         rows.extend(store::read_jsonl(&path)?);
     }
