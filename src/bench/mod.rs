@@ -174,6 +174,8 @@ pub fn run_one(run: &RunSpec, base: &Config) -> BenchRow {
 
 /// Receives one call per finished run (for a progress bar).
 pub trait Progress: Sync {
+    /// Called once before the first run: runs in the batch and runs already done (`--resume`).
+    fn start(&self, _total: usize, _skipped: usize) {}
     fn finished(&self, row: &BenchRow);
 }
 
@@ -261,6 +263,7 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
     let total = plan_runs(spec).len();
     let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
+    progress.start(total, skipped);
     let writer = Mutex::new(store::RowWriter::open_append(
         &spec.out.join(store::RESULTS_JSONL),
     )?);
@@ -329,10 +332,11 @@ pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Re
     for d in dirs {
         let path = d.join(store::RESULTS_JSONL);
         if !path.is_file() {
-            return Err(Error::io(
-                &path,
-                std::io::Error::new(std::io::ErrorKind::NotFound, "no results.jsonl here"),
-            ));
+            return Err(Error::Runtime(format!(
+                "{}: not found (is {} a bench output folder?)",
+                path.display(),
+                d.display()
+            )));
         }
         rows.extend(store::read_jsonl(&path)?);
     }

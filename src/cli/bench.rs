@@ -87,6 +87,13 @@ struct Bar {
 }
 
 impl bench::Progress for Bar {
+    fn start(&self, total: usize, skipped: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(skipped as u64);
+        // The ETA counts only the runs done in this process.
+        self.bar.reset_eta();
+    }
+
     fn finished(&self, row: &BenchRow) {
         if row.status == RunStatus::Failed {
             self.failed.fetch_add(1, Ordering::Relaxed);
