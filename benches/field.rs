@@ -24,7 +24,7 @@ struct KeyFrames {
 
 impl Observer for KeyFrames {
     fn on_step(&mut self, view: &StepView) {
-        if view.step % self.every_steps == 0 {
+        if view.step.is_multiple_of(self.every_steps) {
             self.surface.push(view.map.surface_cells().to_vec());
             let grid = view.map.grid();
             self.obstacle

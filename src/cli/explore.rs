@@ -85,7 +85,7 @@ struct Progress {
 
 impl Observer for Progress {
     fn on_step(&mut self, view: &StepView) {
-        if view.step % 50 == 0 {
+        if view.step.is_multiple_of(50) {
             self.bar.set_position(view.time_s as u64);
             self.bar.set_message(format!(
                 "completeness {:.3}  path {:.1} m",

@@ -197,7 +197,7 @@ impl<S: Sink> Observer for Recorder<S> {
         );
         if let Some(frame) = view.frame {
             let n = self.cfg.depth_every_n;
-            if n > 0 && self.frames_seen % n == 0 {
+            if n > 0 && self.frames_seen.is_multiple_of(n) {
                 self.put(
                     &topics::DEPTH,
                     view.time_s,

@@ -140,7 +140,7 @@ pub fn run(
         let time_s = step as f64 / steps_per_s;
         // Sense.
         let t0 = Instant::now();
-        let fired = step % camera_period == 0;
+        let fired = step.is_multiple_of(camera_period);
         if fired {
             camera.capture_into(&bvh, robot.pose, &mut frame);
         }
@@ -231,7 +231,7 @@ pub fn run(
             volume_at_last_gain = volume;
             last_gain_step = step;
         }
-        if step % curve_period == 0 {
+        if step.is_multiple_of(curve_period) {
             curve.push(CurveSample {
                 t_s: step as f64 / steps_per_s,
                 path_length_m: robot.path_length_m,
