@@ -198,7 +198,7 @@ pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
         next: 0,
         divergence: None,
     };
-    let mut rec = Recorder::new(comparer, &cfg.log, None);
+    let mut rec = Recorder::new(comparer, &cfg, None);
     sim::run(&scene, world, &cfg, planner, &mut rec)?;
     let c = rec.sink;
     if c.divergence.is_some() {
