@@ -14,7 +14,8 @@ fn main() -> ExitCode {
             let code = e
                 .downcast_ref::<tensorscout::Error>()
                 .map_or(1, tensorscout::Error::exit_code);
-            eprintln!("error: {e:#}");
+            // Library errors already name their cause; `{e}` avoids printing it twice.
+            eprintln!("error: {e}");
             ExitCode::from(code as u8)
         }
     }

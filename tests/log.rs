@@ -59,7 +59,8 @@ fn log_replays_verifies_and_is_never_overwritten() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_copy(dir.path(), "apartment_small.obj");
     let log = dir.path().join("run.mcap");
-    let run = explore_logged(&scene, &log, &[]);
+    // With the field topics on, so that they are verified and read by Python too.
+    let run = explore_logged(&scene, &log, &["--set", "log.field=true"]);
     assert!(run.status.success(), "{}", stderr(&run));
     let result = json(&run);
 
@@ -108,7 +109,12 @@ fn log_replays_verifies_and_is_never_overwritten() {
         "{}",
         stderr(&again)
     );
-    assert!(explore_logged(&scene, &log, &["--force"]).status.success());
+    let field = ["--set", "log.field=true"];
+    assert!(
+        explore_logged(&scene, &log, &["--force", field[0], field[1]])
+            .status
+            .success()
+    );
 
     // An edited scene is caught by its content hash.
     let mut text = std::fs::read_to_string(&scene).unwrap();

@@ -133,7 +133,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             }
             Some(Recorder::new(
                 RunLog::create(path, &identity, &cfg.log)?,
-                &cfg.log,
+                &cfg,
                 Some(stop),
             ))
         }

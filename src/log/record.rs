@@ -2,7 +2,8 @@
 //! code feeds the file writer and `replay --verify`, so a re-run is compared byte for byte.
 
 use super::topics::{self, Topic};
-use crate::config::LogConfig;
+use crate::config::{Config, FieldConfig, LogConfig};
+use crate::field::{DegenerateKind, TensorField};
 use crate::map::{CellState, Map};
 use crate::plan::Action;
 use crate::sim::metrics::STAGES;
@@ -23,16 +24,21 @@ pub trait Sink {
 pub struct Recorder<S: Sink> {
     pub sink: S,
     cfg: LogConfig,
+    field_cfg: FieldConfig,
+    /// Built at the first key frame when `log.field` is on (GREEDY has no field of its own).
+    field: Option<TensorField>,
     frames_seen: u64,
     next_key_frame_s: f64,
     stop: Option<Arc<AtomicBool>>,
 }
 
 impl<S: Sink> Recorder<S> {
-    pub fn new(sink: S, cfg: &LogConfig, stop: Option<Arc<AtomicBool>>) -> Self {
+    pub fn new(sink: S, cfg: &Config, stop: Option<Arc<AtomicBool>>) -> Self {
         Recorder {
             sink,
-            cfg: cfg.clone(),
+            cfg: cfg.log.clone(),
+            field_cfg: cfg.field.clone(),
+            field: None,
             frames_seen: 0,
             next_key_frame_s: 0.0,
             stop,
@@ -117,6 +123,44 @@ pub fn grid_message(time_s: f64, map: &Map) -> Value {
         "fields": [{"name": "state", "offset": 0, "type": 7}, {"name": "known", "offset": 4, "type": 7}],
         "data": super::base64_encode(&data)
     })
+}
+
+/// `/field/tensor`: the field's `a`, `b` (tensor components) and constraint weight as float32.
+pub fn field_tensor_message(time_s: f64, field: &TensorField) -> Value {
+    let f = field.field();
+    let g = f.spec;
+    let mut data = Vec::with_capacity(g.cells() * 12);
+    for i in 0..g.cells() {
+        for v in [f.ab[i][0], f.ab[i][1], f.weight[i]] {
+            data.extend_from_slice(&(v as f32).to_le_bytes());
+        }
+    }
+    json!({
+        "timestamp": stamp(time_s), "frame_id": "world",
+        "pose": pose_json(g.origin_x, g.origin_y, 0.0, 0.0),
+        "column_count": g.nx, "cell_size": {"x": g.res, "y": g.res},
+        "row_stride": g.nx * 12, "cell_stride": 12,
+        "fields": [{"name": "a", "offset": 0, "type": 7}, {"name": "b", "offset": 4, "type": 7},
+                   {"name": "weight", "offset": 8, "type": 7}],
+        "data": super::base64_encode(&data)
+    })
+}
+
+/// `/field/degenerate`: one sphere per degenerate point, wedges green, trisectors red, others grey.
+pub fn degenerate_message(time_s: f64, field: &TensorField) -> Value {
+    let spheres = field
+        .points()
+        .iter()
+        .map(|p| {
+            let c = match p.kind {
+                DegenerateKind::Wedge => [40, 180, 60],
+                DegenerateKind::Trisector => [220, 40, 40],
+                _ => [120, 120, 120],
+            };
+            json!({"pose": pose_json(p.x, p.y, 0.3, 0.0), "size": {"x": 0.3, "y": 0.3, "z": 0.3}, "color": colour(c)})
+        })
+        .collect();
+    entity(time_s, "degenerate_points", spheres, Vec::new())
 }
 
 /// A distinct colour per frontier group (cycled).
@@ -212,6 +256,19 @@ impl<S: Sink> Observer for Recorder<S> {
                 view.time_s,
                 &grid_message(view.time_s, view.map),
             );
+            if self.cfg.field {
+                let (cfg, map) = (&self.field_cfg, view.map);
+                let field = self
+                    .field
+                    .get_or_insert_with(|| TensorField::new(*map.grid(), cfg));
+                // The field's grid is the map's, so update cannot fail on a grid mismatch.
+                if field.update(map).is_ok() {
+                    let tensor = field_tensor_message(view.time_s, field);
+                    let degenerate = degenerate_message(view.time_s, field);
+                    self.put(&topics::FIELD_TENSOR, view.time_s, &tensor);
+                    self.put(&topics::FIELD_DEGENERATE, view.time_s, &degenerate);
+                }
+            }
             while self.next_key_frame_s <= view.time_s + 1e-9 {
                 self.next_key_frame_s += self.cfg.map_every_s;
             }

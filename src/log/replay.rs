@@ -198,7 +198,7 @@ pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
         next: 0,
         divergence: None,
     };
-    let mut rec = Recorder::new(comparer, &cfg.log, None);
+    let mut rec = Recorder::new(comparer, &cfg, None);
     sim::run(&scene, world, &cfg, planner, &mut rec)?;
     let c = rec.sink;
     if c.divergence.is_some() {
@@ -252,8 +252,8 @@ fn decode_grid(v: &Value) -> Option<LoggedGrid> {
     Some(LoggedGrid { grid, state })
 }
 
-/// Coloured points of a `/plan/frontiers` message.
-fn decode_frontiers(v: &Value) -> Vec<(nalgebra::Point2<f64>, image::Rgb<u8>)> {
+/// Coloured sphere centres of a `SceneUpdate` message (`/plan/frontiers`, `/field/degenerate`).
+fn decode_spheres(v: &Value) -> Vec<(nalgebra::Point2<f64>, image::Rgb<u8>)> {
     let spheres = v["entities"][0]["spheres"]
         .as_array()
         .cloned()
@@ -310,13 +310,16 @@ fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
 /// Writes `frame_NNNN.png` every `every_s` simulated seconds and `overview.png`: the latest map
 /// key frame (unknown grey, free white, obstacles black, frontier cells orange), frontiers coloured
 /// by group, the A* path, the driven path, and the robot with its camera frustum. Returns the
-/// number of frames written. The field and tour layers join when the field planners log them.
+/// number of frames written. Degenerate points are drawn when `log.field` was on; field glyphs,
+/// the TSP tour and the advected pathline are not drawn yet (simplification: they join with the
+/// THP/TENSOR/NBV planners' topics).
 pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
     use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
     let grids = decoded(log, &topics::MAP_GRID, decode_grid);
     let poses = decoded(log, &topics::POSE, decode_pose);
-    let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_frontiers(v)));
+    let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_spheres(v)));
+    let degenerate = decoded(log, &topics::FIELD_DEGENERATE, |v| Some(decode_spheres(v)));
     let paths = decoded(log, &topics::PLAN_PATH, |v| Some(decode_path(v)));
     let Some(end_ns) = poses.last().map(|p| p.0) else {
         return Err(Error::Runtime("the log has no poses to draw".into()));
@@ -341,6 +344,10 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
         if with_plan {
             for (p, c) in latest(&frontiers, t_ns).into_iter().flatten() {
                 canvas.disc(*p, (cell_px * 0.6).max(1.5), *c);
+            }
+            // Degenerate points by type (wedge green, trisector red), when the field was logged.
+            for (p, c) in latest(&degenerate, t_ns).into_iter().flatten() {
+                canvas.disc(*p, (cell_px * 1.5).max(3.0), *c);
             }
             if let Some(path) = latest(&paths, t_ns) {
                 canvas.polyline(path, 2.0, image::Rgb([150, 40, 200]));

@@ -76,6 +76,20 @@ pub const PLAN_PATH: Topic = Topic {
     verified: true,
 };
 
+pub const FIELD_TENSOR: Topic = Topic {
+    name: "/field/tensor",
+    schema_name: "foxglove.Grid",
+    schema_json: GRID_SCHEMA,
+    verified: true,
+};
+
+pub const FIELD_DEGENERATE: Topic = Topic {
+    name: "/field/degenerate",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
+
 pub const METRICS: Topic = Topic {
     name: "/metrics",
     schema_name: "tensorscout.Metrics",
@@ -86,12 +100,14 @@ pub const METRICS: Topic = Topic {
     verified: true,
 };
 
-/// Every topic, in channel-id order. The field topics (`/field/tensor`, `/field/degenerate`,
-/// `/field/topology`) and `/plan/tour` join here when the THP/TENSOR/NBV planners land.
-pub const TOPICS: [&Topic; 6] = [
+/// Every topic, in channel-id order. `/field/topology` and `/plan/tour` join here when the
+/// THP/TENSOR/NBV planners land.
+pub const TOPICS: [&Topic; 8] = [
     &POSE,
     &DEPTH,
     &MAP_GRID,
+    &FIELD_TENSOR,
+    &FIELD_DEGENERATE,
     &PLAN_FRONTIERS,
     &PLAN_PATH,
     &METRICS,

@@ -16,6 +16,8 @@ SCHEMAS = {
     "/robot/pose": "foxglove.PoseInFrame",
     "/camera/depth": "foxglove.RawImage",
     "/map/grid": "foxglove.Grid",
+    "/field/tensor": "foxglove.Grid",
+    "/field/degenerate": "foxglove.SceneUpdate",
     "/plan/frontiers": "foxglove.SceneUpdate",
     "/plan/path": "foxglove.SceneUpdate",
     "/metrics": "tensorscout.Metrics",
