@@ -234,7 +234,6 @@ fn bad_flags_are_usage_errors() {
     for (extra, needle) in [
         (&["--shard", "3/2"][..], "--shard `3/2`: expected K/N"),
         (&["--jobs", "0"][..], "--jobs 0"),
-        (&["--log-runs"][..], "--log-runs"),
     ] {
         let o = bench(&t.path().join("x"), extra);
         assert_eq!(o.status.code(), Some(2), "{extra:?}");
@@ -243,5 +242,28 @@ fn bad_flags_are_usage_errors() {
             "{extra:?}: {}",
             String::from_utf8_lossy(&o.stderr)
         );
+    }
+}
+
+#[test]
+fn log_runs_writes_one_verifiable_log_per_run() {
+    let t = tmp();
+    let out = t.path().join("logged");
+    let o = bench(&out, &["--log-runs"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut logs: Vec<_> = std::fs::read_dir(out.join("logs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    logs.sort();
+    let rows = std::fs::read_to_string(out.join("results.jsonl")).unwrap();
+    assert_eq!(logs.len(), rows.lines().count());
+    for log in logs {
+        let r = Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+            .args(["replay", log.to_str().unwrap(), "--verify"])
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        assert!(String::from_utf8_lossy(&r.stdout).contains("identical"));
     }
 }

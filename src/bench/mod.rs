@@ -58,6 +58,8 @@ pub struct BenchSpec {
     pub resume: bool,
     pub shard: Option<Shard>,
     pub reference: Option<PlannerKind>,
+    /// Write each run's MCAP log into `out/logs/`.
+    pub log_runs: bool,
 }
 
 /// One run to do.
@@ -137,14 +139,34 @@ pub fn plan_runs(spec: &BenchSpec) -> Vec<RunSpec> {
 }
 
 /// Runs one exploration; any error or panic becomes a failed row.
-pub fn run_one(run: &RunSpec, base: &Config) -> BenchRow {
+pub fn run_one(run: &RunSpec, base: &Config, log_dir: Option<&Path>) -> BenchRow {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<sim::RunOutput> {
         let mut cfg = base.clone();
         cfg.seed = run.key.seed;
         run.planner.build(&cfg)?;
         let scene = scene::load(&run.scene_path, &cfg.scene)?;
         let world = World::new(&scene, &cfg, None)?;
-        sim::run(&scene, world, &cfg, run.planner, &mut sim::NoObserver)
+        let Some(dir) = log_dir else {
+            return sim::run(&scene, world, &cfg, run.planner, &mut sim::NoObserver);
+        };
+        let path = dir.join(format!(
+            "{}_{}_seed{}_{}.mcap",
+            scene.name,
+            run.planner.name(),
+            run.key.seed,
+            &run.key.config_hash
+        ));
+        let identity =
+            crate::log::RunIdentity::new(&run.scene_path, &scene, run.planner, &cfg, None);
+        let mut recorder = crate::log::Recorder::new(
+            crate::log::RunLog::create(&path, &identity, &cfg.log)?,
+            &cfg,
+            None,
+        );
+        let out = sim::run(&scene, world, &cfg, run.planner, &mut recorder);
+        // The log is finished (summary section written) whatever the run's outcome.
+        recorder.sink.close()?;
+        out
     }));
     match outcome {
         Ok(Ok(out)) => {
@@ -260,6 +282,10 @@ impl Drop for DirLock {
 pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchReport> {
     std::fs::create_dir_all(&spec.out).map_err(|e| Error::io(&spec.out, e))?;
     let _lock = DirLock::take(&spec.out)?;
+    let log_dir = spec.log_runs.then(|| spec.out.join("logs"));
+    if let Some(dir) = &log_dir {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
     let total = plan_runs(spec).len();
     let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
@@ -276,7 +302,7 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
     let write_errors: Vec<Error> = pool.install(|| {
         todo.par_iter()
             .filter_map(|run| {
-                let row = run_one(run, &spec.config);
+                let row = run_one(run, &spec.config, log_dir.as_deref());
                 let res = writer.lock().expect("writer lock").append(&row);
                 progress.finished(&row);
                 res.err()
@@ -372,6 +398,7 @@ mod tests {
             resume: false,
             shard,
             reference: None,
+            log_runs: false,
         }
     }
 
@@ -429,7 +456,7 @@ mod tests {
             scene_path: "/nonexistent/x.obj".into(),
             planner: PlannerKind::Greedy,
         };
-        let row = run_one(&run, &Config::default());
+        let row = run_one(&run, &Config::default(), None);
         assert_eq!(row.status, RunStatus::Failed);
         assert!(row.error.unwrap().starts_with("/nonexistent/x.obj"));
         let row = run_one(
@@ -438,6 +465,7 @@ mod tests {
                 ..run
             },
             &Config::default(),
+            None,
         );
         assert_eq!(
             row.error.as_deref(),

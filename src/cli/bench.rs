@@ -129,12 +129,6 @@ fn run_batch(a: RunArgs) -> Result<()> {
     if a.seeds == 0 {
         return Err(Error::usage("--seeds 0: expected at least 1").into());
     }
-    if a.log_runs {
-        // MCAP logging has not landed in this version; refuse up front rather than run unlogged.
-        return Err(
-            Error::usage("--log-runs: MCAP run logs are not available in this version").into(),
-        );
-    }
     let shard = a.shard.as_deref().map(str::parse::<Shard>).transpose()?;
     let jobs = match a.jobs {
         Some(0) => return Err(Error::usage("--jobs 0: expected at least 1").into()),
@@ -151,6 +145,7 @@ fn run_batch(a: RunArgs) -> Result<()> {
         resume: a.resume,
         shard,
         reference: a.reference,
+        log_runs: a.log_runs,
     };
     let total = bench::plan_runs(&spec).len();
     let show = !a.quiet && std::io::stderr().is_terminal();

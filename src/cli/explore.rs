@@ -113,19 +113,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
 
     let mut logger = match &args.log {
         Some(path) => {
-            let identity = RunIdentity {
-                scene_path: args.scene.display().to_string(),
-                scene_hash: scene.content_hash.clone(),
-                planner: args.planner.name().to_string(),
-                seed: cfg.seed,
-                version: tensorscout::VERSION.to_string(),
-                config_hash: cfg.hash(),
-                config_toml: cfg.to_toml(),
-                spawn: args
-                    .spawn
-                    .map(|p| format!("{},{},{}", p.x, p.y, p.yaw))
-                    .unwrap_or_default(),
-            };
+            let identity = RunIdentity::new(&args.scene, &scene, args.planner, &cfg, args.spawn);
             let stop = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&stop))

@@ -47,6 +47,28 @@ pub struct RunIdentity {
 }
 
 impl RunIdentity {
+    /// The identity of a run of `planner` on `scene` (loaded from `scene_path`) under `cfg`.
+    pub fn new(
+        scene_path: &std::path::Path,
+        scene: &crate::scene::Scene,
+        planner: crate::plan::PlannerKind,
+        cfg: &crate::Config,
+        spawn: Option<crate::Pose2>,
+    ) -> Self {
+        RunIdentity {
+            scene_path: scene_path.display().to_string(),
+            scene_hash: scene.content_hash.clone(),
+            planner: planner.name().to_string(),
+            seed: cfg.seed,
+            version: crate::VERSION.to_string(),
+            config_hash: cfg.hash(),
+            config_toml: cfg.to_toml(),
+            spawn: spawn
+                .map(|p| format!("{},{},{}", p.x, p.y, p.yaw))
+                .unwrap_or_default(),
+        }
+    }
+
     fn to_map(&self) -> std::collections::BTreeMap<String, String> {
         [
             ("scene_path", &self.scene_path),
