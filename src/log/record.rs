@@ -163,6 +163,35 @@ pub fn degenerate_message(time_s: f64, field: &TensorField) -> Value {
     entity(time_s, "degenerate_points", spheres, Vec::new())
 }
 
+/// `/field/topology`: separatrices as grey line strips and topology-graph edges as blue ones (each
+/// edge is a traced separatrix or a shortest-path pairing between two points).
+pub fn topology_message(time_s: f64, field: &TensorField) -> Value {
+    let strip = |polyline: &[[f64; 2]], c: [u8; 3], thickness: f64| {
+        let points: Vec<Value> = polyline
+            .iter()
+            .map(|p| json!({"x": p[0], "y": p[1], "z": 0.2}))
+            .collect();
+        json!({
+            "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": thickness,
+            "scale_invariant": false, "points": points, "color": colour(c),
+            "colors": [], "indices": []
+        })
+    };
+    let graph = field.graph();
+    let lines = graph
+        .separatrices
+        .iter()
+        .map(|s| strip(&s.polyline, [150, 150, 150], 0.03))
+        .chain(
+            graph
+                .edges
+                .iter()
+                .map(|e| strip(&e.polyline, [40, 90, 220], 0.06)),
+        )
+        .collect();
+    entity(time_s, "topology", Vec::new(), lines)
+}
+
 /// A distinct colour per frontier group (cycled).
 pub const GROUP_COLOURS: [[u8; 3]; 8] = [
     [230, 25, 75],
@@ -265,8 +294,10 @@ impl<S: Sink> Observer for Recorder<S> {
                 if field.update(map).is_ok() {
                     let tensor = field_tensor_message(view.time_s, field);
                     let degenerate = degenerate_message(view.time_s, field);
+                    let topology = topology_message(view.time_s, field);
                     self.put(&topics::FIELD_TENSOR, view.time_s, &tensor);
                     self.put(&topics::FIELD_DEGENERATE, view.time_s, &degenerate);
+                    self.put(&topics::FIELD_TOPOLOGY, view.time_s, &topology);
                 }
             }
             while self.next_key_frame_s <= view.time_s + 1e-9 {

@@ -90,6 +90,13 @@ pub const FIELD_DEGENERATE: Topic = Topic {
     verified: true,
 };
 
+pub const FIELD_TOPOLOGY: Topic = Topic {
+    name: "/field/topology",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
+
 pub const METRICS: Topic = Topic {
     name: "/metrics",
     schema_name: "tensorscout.Metrics",
@@ -100,14 +107,14 @@ pub const METRICS: Topic = Topic {
     verified: true,
 };
 
-/// Every topic, in channel-id order. `/field/topology` and `/plan/tour` join here when the
-/// THP/TENSOR/NBV planners land.
-pub const TOPICS: [&Topic; 8] = [
+/// Every topic, in channel-id order. `/plan/tour` joins here when the THP/NBV planners land.
+pub const TOPICS: [&Topic; 9] = [
     &POSE,
     &DEPTH,
     &MAP_GRID,
     &FIELD_TENSOR,
     &FIELD_DEGENERATE,
+    &FIELD_TOPOLOGY,
     &PLAN_FRONTIERS,
     &PLAN_PATH,
     &METRICS,

@@ -18,6 +18,7 @@ SCHEMAS = {
     "/map/grid": "foxglove.Grid",
     "/field/tensor": "foxglove.Grid",
     "/field/degenerate": "foxglove.SceneUpdate",
+    "/field/topology": "foxglove.SceneUpdate",
     "/plan/frontiers": "foxglove.SceneUpdate",
     "/plan/path": "foxglove.SceneUpdate",
     "/metrics": "tensorscout.Metrics",
