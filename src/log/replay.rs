@@ -227,11 +227,20 @@ struct LoggedGrid {
 }
 
 fn decode_grid(v: &Value) -> Option<LoggedGrid> {
+    decode_grid_at(v, 0)
+}
+
+/// A `foxglove.Grid`'s float32 field at byte `offset` within each cell.
+fn decode_grid_at(v: &Value, offset: usize) -> Option<LoggedGrid> {
     let nx = v["column_count"].as_u64()? as usize;
     let row_stride = v["row_stride"].as_u64()? as usize;
     let cell_stride = v["cell_stride"].as_u64()? as usize;
     let data = super::base64_decode(v["data"].as_str()?)?;
-    if nx == 0 || row_stride < nx * cell_stride || cell_stride < 4 || data.len() % row_stride != 0 {
+    if nx == 0
+        || row_stride < nx * cell_stride
+        || cell_stride < offset + 4
+        || data.len() % row_stride != 0
+    {
         return None;
     }
     let ny = data.len() / row_stride;
@@ -245,7 +254,7 @@ fn decode_grid(v: &Value) -> Option<LoggedGrid> {
     };
     let state = (0..nx * ny)
         .map(|i| {
-            let at = (i / nx) * row_stride + (i % nx) * cell_stride;
+            let at = (i / nx) * row_stride + (i % nx) * cell_stride + offset;
             f32::from_le_bytes(data[at..at + 4].try_into().expect("4 bytes"))
         })
         .collect();
@@ -274,13 +283,25 @@ fn decode_spheres(v: &Value) -> Vec<(nalgebra::Point2<f64>, image::Rgb<u8>)> {
 
 /// Points of the line strip in a `/plan/path` message.
 fn decode_path(v: &Value) -> Vec<nalgebra::Point2<f64>> {
-    let points = v["entities"][0]["lines"][0]["points"]
+    decode_lines(v).into_iter().next().unwrap_or_default()
+}
+
+/// Every line strip of a `SceneUpdate` message (`/plan/path`, `/field/topology`).
+fn decode_lines(v: &Value) -> Vec<Vec<nalgebra::Point2<f64>>> {
+    let lines = v["entities"][0]["lines"]
         .as_array()
         .cloned()
         .unwrap_or_default();
-    points
+    lines
         .iter()
-        .filter_map(|p| Some(nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?)))
+        .map(|l| {
+            l["points"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(|p| Some(nalgebra::Point2::new(p["x"].as_f64()?, p["y"].as_f64()?)))
+                .collect()
+        })
         .collect()
 }
 
@@ -321,6 +342,10 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_spheres(v)));
     let degenerate = decoded(log, &topics::FIELD_DEGENERATE, |v| Some(decode_spheres(v)));
     let paths = decoded(log, &topics::PLAN_PATH, |v| Some(decode_path(v)));
+    let tensors = decoded(log, &topics::FIELD_TENSOR, |v| {
+        Some((decode_grid_at(v, 0)?, decode_grid_at(v, 4)?))
+    });
+    let topology = decoded(log, &topics::FIELD_TOPOLOGY, |v| Some(decode_lines(v)));
     let Some(end_ns) = poses.last().map(|p| p.0) else {
         return Err(Error::Runtime("the log has no poses to draw".into()));
     };
@@ -342,6 +367,29 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
         });
         let cell_px = canvas.scale as f64;
         if with_plan {
+            // The field as glyphs along its major eigenvector, every 4th cell where it is defined,
+            // and the separatrices and graph edges, when the field was logged.
+            if let Some((a, b)) = latest(&tensors, t_ns) {
+                let every = 4;
+                let half = 0.4 * every as f64 * a.grid.res;
+                for iy in (every / 2..a.grid.ny).step_by(every) {
+                    for ix in (every / 2..a.grid.nx).step_by(every) {
+                        let c = crate::Cell::new(ix as i32, iy as i32);
+                        let i = a.grid.index(c);
+                        let (ai, bi) = (f64::from(a.state[i]), f64::from(b.state[i]));
+                        if ai.hypot(bi) <= 0.0 {
+                            continue;
+                        }
+                        let theta = 0.5 * bi.atan2(ai);
+                        let d = nalgebra::Vector2::new(theta.cos(), theta.sin()) * half;
+                        let p = a.grid.center(c);
+                        canvas.line(p - d, p + d, 1.0, image::Rgb([120, 160, 200]));
+                    }
+                }
+            }
+            for line in latest(&topology, t_ns).into_iter().flatten() {
+                canvas.polyline(line, 1.0, image::Rgb([40, 150, 90]));
+            }
             for (p, c) in latest(&frontiers, t_ns).into_iter().flatten() {
                 canvas.disc(*p, (cell_px * 0.6).max(1.5), *c);
             }
