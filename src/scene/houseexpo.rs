@@ -64,16 +64,7 @@ pub fn import_bytes(path: &Path, bytes: &[u8], cfg: &SceneConfig) -> Result<Impo
             max[k] = max[k].max(v[k]);
         }
     }
-    let extent = (max[0] - min[0]).max(max[1] - min[1]);
-    if extent > cfg.max_extent_m {
-        return Err(Error::scene(
-            path,
-            format!(
-                "plan extent {extent:.1} m exceeds scene.max_extent_m = {} m (wrong units?)",
-                cfg.max_extent_m
-            ),
-        ));
-    }
+    super::check_extent(path, "plan", (max[0] - min[0]).max(max[1] - min[1]), cfg)?;
     let ring = RING_CELLS as f64 * RASTER_M;
     let origin = [min[0] - ring, min[1] - ring];
     let nx = ((max[0] - min[0]) / RASTER_M).ceil() as usize + 2 * RING_CELLS;

@@ -166,16 +166,12 @@ fn validate(path: &Path, mesh: &TriMesh, cfg: &SceneConfig) -> Result<f64> {
         }
     }
     let extent = [max[0] - min[0], max[1] - min[1], max[2] - min[2]];
-    let largest = extent.iter().cloned().fold(0.0, f64::max);
-    if largest > cfg.max_extent_m {
-        return Err(Error::scene(
-            path,
-            format!(
-                "mesh extent {largest:.1} m exceeds scene.max_extent_m = {} m (wrong units?)",
-                cfg.max_extent_m
-            ),
-        ));
-    }
+    check_extent(
+        path,
+        "mesh",
+        extent.iter().cloned().fold(0.0, f64::max),
+        cfg,
+    )?;
     const EPS: f64 = 1e-6;
     if extent[2] <= EPS {
         return Err(Error::scene(
@@ -374,6 +370,20 @@ pub fn write_obj(
         out.flush()
     };
     write(&mut out).map_err(|e| Error::io(path, e))
+}
+
+/// Rejects a scene larger than `scene.max_extent_m` along any axis (usually wrong units).
+pub(crate) fn check_extent(path: &Path, what: &str, extent: f64, cfg: &SceneConfig) -> Result<()> {
+    if extent > cfg.max_extent_m {
+        return Err(Error::scene(
+            path,
+            format!(
+                "{what} extent {extent:.1} m exceeds scene.max_extent_m = {} m (wrong units?)",
+                cfg.max_extent_m
+            ),
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
