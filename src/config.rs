@@ -25,6 +25,9 @@ pub struct Config {
     pub search: SearchConfig,
     pub greedy: GreedyConfig,
     pub field: FieldConfig,
+    pub thp: ThpConfig,
+    pub tensor: TensorConfig,
+    pub nbv: NbvConfig,
     pub log: LogConfig,
 }
 
@@ -158,6 +161,108 @@ pub struct FieldConfig {
     pub max_move_m: f64,
 }
 
+/// How THP groups frontiers before its TSP (THP §3.4; Fig. 8 compares the three).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Grouping {
+    /// Frontiers join their nearest anchor within `d_f` (THP Alg. 2): the TSP runs over anchors.
+    Anchors,
+    /// No grouping: the TSP runs over every frontier.
+    None,
+    /// K-means clusters of frontiers (Kulich et al. 2019): the TSP runs over cluster centres.
+    Kmeans,
+}
+
+/// THP: anchors, online TSP, frontier grouping and splitting, advection (seed 000 §3.3–3.5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThpConfig {
+    pub field_period_s: f64,
+    pub extension: bool,
+    pub grouping: Grouping,
+    pub d_f_m: f64,
+    pub d_g_m: f64,
+    pub d_p_m: f64,
+    pub kmeans_cluster_m: f64,
+    pub exact_tsp_max_nodes: usize,
+    pub advection: bool,
+    pub advect_length_m: f64,
+    pub drift_m: f64,
+    pub view_distance_m: f64,
+}
+
+/// TENSOR: time-varying field, advection, topology-graph routing (seed 001 §4–6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TensorConfig {
+    pub min_info_gain: f64,
+}
+
+/// NBV-TSP: coverage sampling, heuristic gain, GA over a fixed-start open TSP (seed 002).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NbvConfig {
+    pub eta: f64,
+}
+
+/// Fails unless `v` is a finite number above zero, naming `key`.
+fn positive(key: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must be a positive number, got {v}"
+        )))
+    }
+}
+
+/// Fails unless `v` is a finite number of at least zero, naming `key`.
+fn non_negative(key: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must be zero or positive, got {v}"
+        )))
+    }
+}
+
+impl ThpConfig {
+    fn validate(&self) -> Result<()> {
+        for (key, v) in [
+            ("thp.field_period_s", self.field_period_s),
+            ("thp.d_f_m", self.d_f_m),
+            ("thp.d_g_m", self.d_g_m),
+            ("thp.d_p_m", self.d_p_m),
+            ("thp.kmeans_cluster_m", self.kmeans_cluster_m),
+            ("thp.advect_length_m", self.advect_length_m),
+            ("thp.drift_m", self.drift_m),
+        ] {
+            positive(key, v)?;
+        }
+        non_negative("thp.view_distance_m", self.view_distance_m)?;
+        if !(1..=20).contains(&self.exact_tsp_max_nodes) {
+            return Err(Error::usage(format!(
+                "config key `thp.exact_tsp_max_nodes` must lie in 1..=20 (Held–Karp needs 2^n memory), got {}",
+                self.exact_tsp_max_nodes
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl TensorConfig {
+    fn validate(&self) -> Result<()> {
+        non_negative("tensor.min_info_gain", self.min_info_gain)
+    }
+}
+
+impl NbvConfig {
+    fn validate(&self) -> Result<()> {
+        non_negative("nbv.eta", self.eta)
+    }
+}
+
 impl Default for Config {
     fn default() -> Self {
         // The embedded default is checked by a unit test, so this cannot fail in a released binary.
@@ -215,24 +320,6 @@ impl Config {
 
     /// Rejects values that are of the right type but make no sense, naming the key.
     pub fn validate(&self) -> Result<()> {
-        fn positive(key: &str, v: f64) -> Result<()> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::usage(format!(
-                    "config key `{key}` must be a positive number, got {v}"
-                )))
-            }
-        }
-        fn non_negative(key: &str, v: f64) -> Result<()> {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(Error::usage(format!(
-                    "config key `{key}` must be zero or positive, got {v}"
-                )))
-            }
-        }
         positive("sim.dt_s", self.sim.dt_s)?;
         positive("sim.budget_s", self.sim.budget_s)?;
         positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
@@ -364,6 +451,9 @@ impl Config {
                 "config keys `field.substeps` and `field.topology_cell_factor` must be at least 1",
             ));
         }
+        self.thp.validate()?;
+        self.tensor.validate()?;
+        self.nbv.validate()?;
         Ok(())
     }
 }

@@ -8,10 +8,12 @@ pub mod greedy;
 pub mod search;
 
 use crate::config::{Config, SearchConfig};
+use crate::field::TensorField;
 use crate::map::Map;
 use crate::{Pose2, Result};
 use nalgebra::Point2;
 use search::Search;
+use std::collections::BTreeMap;
 
 /// What a planner sees: read-only views of the map and the robot, plus a reusable search workspace.
 pub struct PlanContext<'a> {
@@ -83,6 +85,34 @@ pub trait Planner {
 
     /// Told when the action ended: reached (`true`) or blocked/abandoned (`false`).
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool);
+
+    /// The field stage of a step, before planning: the tensor-field planners update their field
+    /// here at their key frames. GREEDY and NBV-TSP have no field.
+    fn update_field(&mut self, _map: &Map, _pose: Pose2, _time_s: f64) -> Result<()> {
+        Ok(())
+    }
+
+    /// The tensor field the planner steers by, if it has one (logged with `log.field`).
+    fn field(&self) -> Option<&TensorField> {
+        None
+    }
+
+    /// The planned visiting order of goals (world points, next goal first), for logs and pictures.
+    fn tour(&self) -> Vec<Point2<f64>> {
+        Vec::new()
+    }
+
+    /// Wall milliseconds spent solving TSPs during the last `plan` call, if one was solved (THP
+    /// Fig. 8 plots it per planning step). Not deterministic: reported with the stage timings.
+    fn take_tsp_ms(&mut self) -> Option<f64> {
+        None
+    }
+
+    /// Deterministic counters the planner reports in the run result (`planner_stats`), such as TSP
+    /// solves or anchors visited.
+    fn stats(&self) -> BTreeMap<String, f64> {
+        BTreeMap::new()
+    }
 }
 
 /// The planners a run can use.

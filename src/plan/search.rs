@@ -304,6 +304,64 @@ impl Search {
     }
 }
 
+impl Search {
+    /// Least costs from `source` to each of `targets` (`None` where unreachable): one Dijkstra that
+    /// stops as soon as every target is settled or the frontier exceeds `max_cost`. Unlike
+    /// [`Search::distance_field`] it allocates nothing grid-sized, so the planners can afford one
+    /// per TSP node (THP §3.3: path-length costs between anchors).
+    pub fn costs_to_targets(
+        &mut self,
+        grid: &GridSpec,
+        cost: impl Fn(usize) -> Option<f32>,
+        source: usize,
+        targets: &[usize],
+        max_cost: f32,
+    ) -> Vec<Option<f32>> {
+        self.begin(grid);
+        let mut left = targets.iter().filter(|&&t| t != source).count();
+        let mut out: Vec<Option<f32>> = targets
+            .iter()
+            .map(|&t| (t == source).then_some(0.0))
+            .collect();
+        if left == 0 {
+            return out;
+        }
+        self.stamp[source] = self.generation;
+        self.g[source] = 0.0;
+        self.parent[source] = source as u32;
+        self.heap.push(Entry {
+            priority: 0.0,
+            cell: source as u32,
+        });
+        while let Some(Entry { priority, cell }) = self.heap.pop() {
+            let at = cell as usize;
+            if self.closed[at] == self.generation {
+                continue;
+            }
+            if priority > max_cost {
+                break;
+            }
+            self.closed[at] = self.generation;
+            for (k, &t) in targets.iter().enumerate() {
+                if t == at && out[k].is_none() {
+                    out[k] = Some(self.g[at]);
+                    left -= 1;
+                }
+            }
+            if left == 0 {
+                break;
+            }
+            self.expand(grid, &cost, at, |heap, ni, g| {
+                heap.push(Entry {
+                    priority: g,
+                    cell: ni as u32,
+                })
+            });
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -431,5 +489,26 @@ mod tests {
         let df = s.distance_field(&g, |_| Some(1.0), src, 1.0);
         assert!(df.cost_to(g.index(Cell::new(5, 0))).is_some());
         assert!(df.cost_to(g.index(Cell::new(30, 0))).is_none());
+    }
+
+    #[test]
+    fn costs_to_targets_agree_with_the_distance_field() {
+        let g = grid(30);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let blocked: Vec<bool> = (0..g.cells()).map(|_| rng.random_bool(0.25)).collect();
+        let cost = |i: usize| (!blocked[i]).then_some(1.0 + (i % 3) as f32);
+        let mut s = Search::new(&g);
+        let source = (0..g.cells()).find(|&i| !blocked[i]).unwrap();
+        let df = s.distance_field(&g, cost, source, f32::INFINITY);
+        let targets: Vec<usize> = (0..40).map(|_| rng.random_range(0..g.cells())).collect();
+        let costs = s.costs_to_targets(&g, cost, source, &targets, f32::INFINITY);
+        for (t, c) in targets.iter().zip(&costs) {
+            assert_eq!(*c, df.cost_to(*t), "target {t}");
+        }
+        // A bound cuts off the far targets and nothing else.
+        let bounded = s.costs_to_targets(&g, cost, source, &targets, 1.0);
+        for (t, c) in targets.iter().zip(&bounded) {
+            assert_eq!(*c, df.cost_to(*t).filter(|&d| d <= 1.0), "target {t}");
+        }
     }
 }

@@ -69,6 +69,8 @@ pub const STAGES: [&str; 5] = ["sense", "map", "field", "plan", "motion"];
 #[derive(Default)]
 pub struct StageTimes {
     samples: [Vec<f64>; 5],
+    /// TSP solve time of each planning step that solved one (part of the plan stage).
+    tsp: Vec<f64>,
 }
 
 impl StageTimes {
@@ -77,12 +79,22 @@ impl StageTimes {
         self.samples[stage].push(ms);
     }
 
+    /// Records the TSP time of one planning step.
+    pub fn record_tsp(&mut self, ms: f64) {
+        self.tsp.push(ms);
+    }
+
+    /// Statistics per stage, plus `tsp` (per planning step that solved a TSP) when there was one.
     pub fn summary(&self) -> BTreeMap<String, StageStats> {
-        STAGES
+        let mut out: BTreeMap<String, StageStats> = STAGES
             .iter()
             .zip(&self.samples)
             .map(|(name, s)| (name.to_string(), StageStats::of(s)))
-            .collect()
+            .collect();
+        if !self.tsp.is_empty() {
+            out.insert("tsp".to_string(), StageStats::of(&self.tsp));
+        }
+        out
     }
 }
 
@@ -174,6 +186,9 @@ pub struct RunResult {
     pub steps: u64,
     pub replans: u64,
     pub astar_calls: u64,
+    /// Deterministic counters of the planner (TSP solves, anchors visited, …); empty for GREEDY.
+    #[serde(default)]
+    pub planner_stats: BTreeMap<String, f64>,
     pub timings_ms: BTreeMap<String, StageStats>,
     pub version: String,
     pub config_hash: String,

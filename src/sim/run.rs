@@ -152,7 +152,13 @@ pub fn run(
         }
         map.clear_footprint(robot.pose.x, robot.pose.y, cfg.robot.radius_m);
         let t2 = Instant::now();
-        // Field: the tensor-field planners update it here; GREEDY does not use one.
+        // Field: the tensor-field planners update theirs here; GREEDY and NBV-TSP have none.
+        if let Err(e) = planner.update_field(&map, robot.pose, time_s) {
+            termination = Termination::Error;
+            error = Some(e.to_string());
+            record(&mut times, [t0, t1, t2, t2, t2, t2]);
+            break;
+        }
         let t3 = Instant::now();
         // Plan.
         {
@@ -169,7 +175,11 @@ pub fn run(
             }
             if need_plan {
                 replans += 1;
-                match planner.plan(&mut ctx) {
+                let planned = planner.plan(&mut ctx);
+                if let Some(ms) = planner.take_tsp_ms() {
+                    times.record_tsp(ms);
+                }
+                match planned {
                     Ok(Action::Complete) => {
                         termination = Termination::Complete;
                     }
@@ -293,6 +303,7 @@ pub fn run(
         steps: step,
         replans,
         astar_calls: search.astar_calls,
+        planner_stats: planner.stats(),
         timings_ms: times.summary(),
         version: crate::VERSION.to_string(),
         config_hash: cfg.hash(),
