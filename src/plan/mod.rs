@@ -4,6 +4,7 @@
 //! a [`PlanContext`] and answers with an [`Action`]; the simulator's one motion executor carries it
 //! out, so that comparisons between planners are fair.
 
+pub mod frontier_visit;
 pub mod greedy;
 pub mod search;
 

@@ -1,0 +1,140 @@
+//! Frontier visits, shared by the frontier-driven planners (GREEDY and THP).
+//!
+//! A forward camera cannot see the floor right in front of it, so a frontier is approached in two
+//! tries: first the robot stops `view_m` short of it (along the path) and turns once in place to look
+//! into the unknown; if the frontier survives, the next approach goes all the way. A frontier that is
+//! still a frontier after the robot stood on it and looked, or that the robot failed to reach twice, is
+//! marked unobservable and skipped from then on (THP §3.4: "done after the robot has looked at it").
+
+use super::search::DistanceField;
+use crate::grid::{Cell, GridSpec};
+use crate::map::Map;
+use nalgebra::Point2;
+
+/// Failed attempts after which a frontier is given up.
+const MAX_ATTEMPTS: u32 = 2;
+
+/// One frontier being visited.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Visit {
+    /// Cells of the frontier segment.
+    pub target: Vec<Cell>,
+    /// The cell the robot aims at.
+    pub aim: usize,
+    /// The frontier lies in the camera's blind zone and the robot steps back to see it.
+    pub near_view: bool,
+}
+
+impl Visit {
+    /// Whether any cell of the target is still a frontier.
+    pub fn is_open(&self, map: &Map) -> bool {
+        let grid = map.grid();
+        self.target.iter().any(|c| map.is_frontier(grid.index(*c)))
+    }
+}
+
+/// What the planner remembers about frontier cells across plans.
+#[derive(Default)]
+pub struct FrontierVisits {
+    unobservable: Vec<bool>,
+    approached: Vec<bool>,
+    /// Failed attempts per aimed-at cell.
+    attempts: Vec<(usize, u32)>,
+}
+
+impl FrontierVisits {
+    /// Sizes the memory for `grid` (a no-op once sized).
+    pub fn ensure(&mut self, grid: &GridSpec) {
+        if self.unobservable.len() != grid.cells() {
+            self.unobservable = vec![false; grid.cells()];
+            self.approached = vec![false; grid.cells()];
+            self.attempts.clear();
+        }
+    }
+
+    /// Whether the frontier cell was given up on.
+    pub fn is_unobservable(&self, cell: usize) -> bool {
+        self.unobservable.get(cell).copied().unwrap_or(false)
+    }
+
+    /// The cells of `path` (start first, ending at `aim`) to drive: all of them if `aim` was approached
+    /// before, otherwise those up to `view_m` (measured along the path) short of the end.
+    pub fn cut_short<'a>(
+        &self,
+        grid: &GridSpec,
+        path: &'a [Cell],
+        aim: usize,
+        view_m: f64,
+    ) -> &'a [Cell] {
+        let view_m = if self.approached.get(aim).copied().unwrap_or(false) {
+            0.0
+        } else {
+            view_m
+        };
+        let mut keep = path.len();
+        let mut remaining = 0.0;
+        while keep > 1 && remaining < view_m {
+            remaining += (grid.center(path[keep - 1]) - grid.center(path[keep - 2])).norm();
+            keep -= 1;
+        }
+        &path[..keep]
+    }
+
+    /// Records how an attempt at `visit` ended: `reached` its (cut-short) goal and looked, or not.
+    pub fn finished(&mut self, map: &Map, visit: &Visit, reached: bool) {
+        if !visit.is_open(map) {
+            return;
+        }
+        let grid = map.grid();
+        if reached {
+            if self.approached[visit.aim] || visit.near_view {
+                // Looked from the frontier itself and it is still one: nothing more can be seen.
+                self.give_up(grid, visit);
+            } else {
+                for c in &visit.target {
+                    self.approached[grid.index(*c)] = true;
+                }
+            }
+            return;
+        }
+        let entry = match self.attempts.iter_mut().find(|(c, _)| *c == visit.aim) {
+            Some(e) => e,
+            None => {
+                self.attempts.push((visit.aim, 0));
+                self.attempts.last_mut().expect("just pushed")
+            }
+        };
+        entry.1 += 1;
+        if entry.1 >= MAX_ATTEMPTS {
+            self.give_up(grid, visit);
+        }
+    }
+
+    /// Marks every cell of the visit's target unobservable.
+    pub fn give_up(&mut self, grid: &GridSpec, visit: &Visit) {
+        for c in &visit.target {
+            self.unobservable[grid.index(*c)] = true;
+        }
+    }
+}
+
+/// For a frontier at `f` in the camera's blind zone: the least-cost traversable cell `view_m` to
+/// `2·view_m` from it, from which the camera sees the floor there.
+pub fn blind_zone_viewpoint(
+    map: &Map,
+    df: &DistanceField,
+    f: Point2<f64>,
+    view_m: f64,
+) -> Option<usize> {
+    let grid = map.grid();
+    (0..grid.cells())
+        .filter(|&i| map.is_traversable(i))
+        .filter_map(|i| {
+            let d = (grid.center(grid.cell(i)) - f).norm();
+            (d >= view_m && d <= 2.0 * view_m)
+                .then(|| df.cost_to(i).map(|c| (c, i)))
+                .flatten()
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .map(|(_, i)| i)
+}
