@@ -6,6 +6,7 @@
 
 pub mod greedy;
 pub mod search;
+pub mod tsp;
 
 use crate::config::{Config, SearchConfig};
 use crate::field::TensorField;
