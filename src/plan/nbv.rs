@@ -228,6 +228,9 @@ struct Viewpoint {
     yaw: f64,
     /// Floor cells in its predicted observation (MarkCovered).
     covered: Vec<u32>,
+    /// A frontier anchor tried before answering `Complete` (see the module doc): kept whatever its
+    /// gain until reached or no longer a frontier.
+    fallback: bool,
 }
 
 /// The NBV-TSP planner.
@@ -241,6 +244,8 @@ pub struct Nbv {
     path_cells: Vec<usize>,
     /// Cells given up as viewpoints (unreachable, or the gain did not drop after a visit).
     given_up: Vec<bool>,
+    /// Cells near a fallback anchor the robot already reached: not tried as anchors again.
+    anchor_done: Vec<bool>,
     attempts: BTreeMap<usize, u32>,
     /// Set when the target was abandoned because its gain dropped (not a failure).
     target_seen: bool,
@@ -263,6 +268,7 @@ impl Nbv {
             target: None,
             path_cells: Vec::new(),
             given_up: Vec::new(),
+            anchor_done: Vec::new(),
             attempts: BTreeMap::new(),
             target_seen: false,
             steps_since_check: 0,
@@ -300,7 +306,11 @@ impl Nbv {
                 let dy = (lo.y - vp.pos.y).max(vp.pos.y - hi.y).max(0.0);
                 dx * dx + dy * dy <= reach * reach
             });
-            if !map.is_traversable(vp.cell) || !reachable(vp.cell) || self.given_up[vp.cell] {
+            if vp.fallback
+                || !map.is_traversable(vp.cell)
+                || !reachable(vp.cell)
+                || self.given_up[vp.cell]
+            {
                 self.count("viewpoints_dropped", 1.0);
                 continue;
             }
@@ -341,6 +351,7 @@ impl Nbv {
             gain: g.volume_m3,
             yaw: g.yaw,
             covered: cov,
+            fallback: false,
         });
         self.count("viewpoints_sampled", 1.0);
         true
@@ -358,6 +369,19 @@ fn line_of_sight(map: &Map, grid: &GridSpec, a: usize, b: usize) -> bool {
     })
 }
 
+/// Whether a frontier cell lies within `r` of `p`.
+fn frontier_near(map: &Map, p: Point2<f64>, r: f64) -> bool {
+    let grid = map.grid();
+    let c = grid.cell_at(p.x, p.y);
+    let n = (r / grid.res).ceil() as i32;
+    (-n..=n).any(|dy| {
+        (-n..=n).any(|dx| {
+            grid.checked_index(crate::Cell::new(c.x + dx, c.y + dy))
+                .is_some_and(|i| map.is_frontier(i))
+        })
+    })
+}
+
 impl Planner for Nbv {
     fn name(&self) -> &'static str {
         "nbv"
@@ -368,6 +392,7 @@ impl Planner for Nbv {
         let map = ctx.map;
         if self.given_up.len() != grid.cells() {
             self.given_up = vec![false; grid.cells()];
+            self.anchor_done = vec![false; grid.cells()];
         }
         self.tsp_ms = None;
         self.target = None;
@@ -434,19 +459,31 @@ impl Planner for Nbv {
                 covered[free] = true;
             }
         }
-        // Before giving up, every frontier segment's anchor is tried (see the module doc).
+        // Before giving up, every reachable frontier segment's anchor not yet visited is tried, at
+        // any gain: unknown floor in the camera's blind zone can close a narrow passage (it is
+        // passable only near the robot), and no viewpoint short of it predicts any gain.
         if self.viewpoints.is_empty() {
             for seg in map.frontiers() {
                 let i = grid.index(seg.anchor);
-                if free_ok(i, &covered, &self.given_up) {
-                    self.count("anchor_tries", 1.0);
-                    if !self.try_add(map, i, &mut covered) {
-                        covered[i] = true;
-                    }
-                }
                 if self.viewpoints.len() >= self.cfg.max_viewpoints {
                     break;
                 }
+                if self.anchor_done[i] || self.given_up[i] || df.cost_to(i).is_none() {
+                    continue;
+                }
+                let pos = grid.center(seg.anchor);
+                let g = self.model.evaluate(map, pos);
+                self.count("gain_evaluations", 1.0);
+                self.count("anchor_tries", 1.0);
+                self.viewpoints.push(Viewpoint {
+                    cell: i,
+                    pos,
+                    // Eq. 7 needs a positive gain: count it at the cutoff at least.
+                    gain: g.volume_m3.max(self.cfg.gain_cutoff_m3).max(1e-6),
+                    yaw: g.yaw,
+                    covered: Vec::new(),
+                    fallback: true,
+                });
             }
         }
         if self.viewpoints.is_empty() {
@@ -528,6 +565,12 @@ impl Planner for Nbv {
         if self.steps_since_check >= RECHECK_STEPS {
             self.steps_since_check = 0;
             if let Some(vp) = self.target.and_then(|k| self.viewpoints.get(k)) {
+                if vp.fallback {
+                    // Outdated once no frontier is left within the sampling radius of it.
+                    let seen = !frontier_near(ctx.map, vp.pos, self.cfg.sample_radius_m);
+                    self.target_seen = seen;
+                    return seen;
+                }
                 let g = self.model.evaluate(ctx.map, vp.pos);
                 self.count("gain_evaluations", 1.0);
                 if g.volume_m3 < self.cfg.gain_cutoff_m3 {
@@ -548,7 +591,20 @@ impl Planner for Nbv {
             return;
         }
         let cell = self.viewpoints[k].cell;
-        if reached {
+        if reached && self.viewpoints[k].fallback {
+            self.count("anchors_visited", 1.0);
+            let grid = ctx.map.grid();
+            let r = (self.cfg.sample_radius_m / grid.res).ceil() as i32;
+            let c = grid.cell(cell);
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    if let Some(i) = grid.checked_index(crate::Cell::new(c.x + dx, c.y + dy)) {
+                        self.anchor_done[i] = true;
+                    }
+                }
+            }
+            self.viewpoints.remove(k);
+        } else if reached {
             self.count("viewpoints_visited", 1.0);
             // Visited: if the looked-around view did not bring the gain below the cutoff, the
             // prediction cannot be met from here; give the cell up so it is not sampled again.
