@@ -203,6 +203,18 @@ pub struct TensorConfig {
 #[serde(deny_unknown_fields)]
 pub struct NbvConfig {
     pub eta: f64,
+    pub sample_radius_m: f64,
+    pub max_viewpoints: usize,
+    pub misses_per_m2: f64,
+    pub min_misses: usize,
+    pub gain_ray_stride: usize,
+    pub visibility_length_m: f64,
+    pub gain_cutoff_m3: f64,
+    pub cover_min_visibility: f64,
+    pub ga_population: usize,
+    pub ga_group_size: usize,
+    pub ga_generations: usize,
+    pub ga_stall_generations: usize,
 }
 
 /// Fails unless `v` is a finite number above zero, naming `key`.
@@ -259,7 +271,40 @@ impl TensorConfig {
 
 impl NbvConfig {
     fn validate(&self) -> Result<()> {
-        non_negative("nbv.eta", self.eta)
+        non_negative("nbv.eta", self.eta)?;
+        for (key, v) in [
+            ("nbv.sample_radius_m", self.sample_radius_m),
+            ("nbv.visibility_length_m", self.visibility_length_m),
+        ] {
+            positive(key, v)?;
+        }
+        non_negative("nbv.misses_per_m2", self.misses_per_m2)?;
+        non_negative("nbv.gain_cutoff_m3", self.gain_cutoff_m3)?;
+        if !(0.0..=1.0).contains(&self.cover_min_visibility) {
+            return Err(Error::usage(format!(
+                "config key `nbv.cover_min_visibility` must lie in [0, 1], got {}",
+                self.cover_min_visibility
+            )));
+        }
+        for (key, v) in [
+            ("nbv.max_viewpoints", self.max_viewpoints),
+            ("nbv.gain_ray_stride", self.gain_ray_stride),
+            ("nbv.ga_population", self.ga_population),
+            ("nbv.ga_group_size", self.ga_group_size),
+        ] {
+            if v == 0 {
+                return Err(Error::usage(format!(
+                    "config key `{key}` must be at least 1, got 0"
+                )));
+            }
+        }
+        if self.ga_group_size > self.ga_population {
+            return Err(Error::usage(format!(
+                "config key `nbv.ga_group_size` ({}) must not exceed `nbv.ga_population` ({})",
+                self.ga_group_size, self.ga_population
+            )));
+        }
+        Ok(())
     }
 }
 

@@ -199,7 +199,7 @@ fn bad_scene_and_unavailable_planner_are_failed_rows() {
             "--scenes",
             &bad_s,
             "--planners",
-            "greedy,nbv",
+            "greedy,tensor",
             "--seeds",
             "1",
         ])
@@ -216,14 +216,14 @@ fn bad_scene_and_unavailable_planner_are_failed_rows() {
         greedy["error"].as_str().unwrap().starts_with(&bad_s),
         "{greedy}"
     );
-    let nbv = r.iter().find(|v| v["planner"] == "nbv").unwrap();
+    let tensor = r.iter().find(|v| v["planner"] == "tensor").unwrap();
     assert_eq!(
-        nbv["error"],
-        "planner `nbv` is not available in this version; available: greedy"
+        tensor["error"],
+        "planner `tensor` is not available in this version; available: greedy, nbv"
     );
     let md = read(&out, "summary.md");
     assert!(
-        md.contains("- **nbv**: no successful run, 1/1 runs failed"),
+        md.contains("- **tensor**: no successful run, 1/1 runs failed"),
         "{md}"
     );
 }

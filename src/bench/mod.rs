@@ -461,7 +461,7 @@ mod tests {
         assert!(row.error.unwrap().starts_with("/nonexistent/x.obj"));
         let row = run_one(
             &RunSpec {
-                planner: PlannerKind::Nbv,
+                planner: PlannerKind::Tensor,
                 ..run
             },
             &Config::default(),
@@ -469,7 +469,7 @@ mod tests {
         );
         assert_eq!(
             row.error.as_deref(),
-            Some("planner `nbv` is not available in this version; available: greedy")
+            Some("planner `tensor` is not available in this version; available: greedy, nbv")
         );
     }
 }

@@ -6,7 +6,9 @@
 
 pub mod frontier_visit;
 pub mod greedy;
+pub mod nbv;
 pub mod search;
+pub mod tsp;
 
 use crate::config::{Config, SearchConfig};
 use crate::field::TensorField;
@@ -144,11 +146,12 @@ impl PlannerKind {
     }
 
     /// A fresh planner of this kind.
-    pub fn build(self, _cfg: &Config) -> Result<Box<dyn Planner>> {
+    pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new())),
+            PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(cfg))),
             other => Err(crate::Error::usage(format!(
-                "planner `{}` is not available in this version; available: greedy",
+                "planner `{}` is not available in this version; available: greedy, nbv",
                 other.name()
             ))),
         }
