@@ -185,6 +185,7 @@ pub struct ThpConfig {
     pub d_p_m: f64,
     pub kmeans_cluster_m: f64,
     pub exact_tsp_max_nodes: usize,
+    pub cost_refresh_s: f64,
     pub advection: bool,
     pub advect_length_m: f64,
     pub drift_m: f64,
@@ -247,6 +248,7 @@ impl ThpConfig {
             ("thp.d_g_m", self.d_g_m),
             ("thp.d_p_m", self.d_p_m),
             ("thp.kmeans_cluster_m", self.kmeans_cluster_m),
+            ("thp.cost_refresh_s", self.cost_refresh_s),
             ("thp.advect_length_m", self.advect_length_m),
             ("thp.drift_m", self.drift_m),
         ] {

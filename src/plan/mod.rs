@@ -8,6 +8,7 @@ pub mod frontier_visit;
 pub mod greedy;
 pub mod nbv;
 pub mod search;
+pub mod thp;
 pub mod tsp;
 
 use crate::config::{Config, SearchConfig};
@@ -58,6 +59,84 @@ pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize)
             1.0
         }
     })
+}
+
+/// The cell searches start from: the robot's own cell, unless the robot stands where no neighbour
+/// may be entered (pushed into an obstacle's inflation band, e.g. in a door barely wider than the
+/// robot); then the nearest enterable cell within `2·radius`, which the motion executor drives to
+/// first. `None` off the grid or with nothing enterable nearby.
+pub fn search_source(
+    map: &Map,
+    cfg: &SearchConfig,
+    robot: Point2<f64>,
+    radius: f64,
+) -> Option<usize> {
+    let grid = map.grid();
+    let here = grid.cell_of(robot)?;
+    let open = |c: crate::grid::Cell| {
+        grid.checked_index(c)
+            .is_some_and(|i| step_cost(map, cfg, robot, i).is_some())
+    };
+    if crate::grid::NEIGHBOURS_8
+        .iter()
+        .any(|&(dx, dy)| open(crate::grid::Cell::new(here.x + dx, here.y + dy)))
+    {
+        return Some(grid.index(here));
+    }
+    let reach = (2.0 * radius / grid.res).ceil() as i32;
+    let mut best: Option<(f64, usize)> = None;
+    for dy in -reach..=reach {
+        for dx in -reach..=reach {
+            let c = crate::grid::Cell::new(here.x + dx, here.y + dy);
+            if !open(c) {
+                continue;
+            }
+            let i = grid.index(c);
+            let d = (grid.center(c) - robot).norm();
+            if d <= 2.0 * radius && best.is_none_or(|b| (d, i) < b) {
+                best = Some((d, i));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// A way out for a robot trapped in a pocket of the map: the cells reachable under [`step_cost`]
+/// (`reachable`) hold no goal, because the robot entered through unknown space (its blind zone) a
+/// door that the obstacles seen since have inflated shut. The escape search also enters inflated
+/// cells that are physically clear (at least `robot.radius_m + clear_margin_m` from every known
+/// obstacle surface), at three times the cost, and leads to the nearest of `targets` (the open
+/// frontier cells) outside the pocket. Returns world points from the robot.
+pub fn escape_path(
+    ctx: &mut PlanContext,
+    source: usize,
+    reachable: &search::DistanceField,
+    targets: &[usize],
+    clear_margin_m: f64,
+) -> Option<Vec<Point2<f64>>> {
+    let (map, cfg, robot) = (ctx.map, &ctx.cfg.search, ctx.pose.position());
+    let grid = *map.grid();
+    let clear = ctx.cfg.robot.radius_m + clear_margin_m;
+    let relaxed = |i: usize| {
+        step_cost(map, cfg, robot, i).or_else(|| {
+            (map.is_inflated(i) && !map.is_obstacle(i) && !map.is_unknown(i) && {
+                let p = grid.center(grid.cell(i));
+                map.nearest_obstacle_point(p, clear).is_none()
+            })
+            .then_some(3.0 * (1.0 + cfg.proximity_cost as f32))
+        })
+    };
+    let df = ctx
+        .search
+        .distance_field(&grid, relaxed, source, f32::INFINITY);
+    let target = targets
+        .iter()
+        .copied()
+        .filter(|&i| reachable.cost_to(i).is_none())
+        .filter_map(|i| df.cost_to(i).map(|c| (c, i)))
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))?;
+    let path = df.path_to(&grid, target.1)?;
+    Some(path.cells.iter().map(|c| grid.center(*c)).collect())
 }
 
 /// What the robot should do next.
@@ -149,9 +228,10 @@ impl PlannerKind {
     pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new())),
+            PlannerKind::Thp => Ok(Box::new(thp::Thp::new(cfg))),
             PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(cfg))),
             other => Err(crate::Error::usage(format!(
-                "planner `{}` is not available in this version; available: greedy, nbv",
+                "planner `{}` is not available in this version; available: thp, nbv, greedy",
                 other.name()
             ))),
         }
