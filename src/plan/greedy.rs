@@ -38,6 +38,12 @@ impl Greedy {
         Self::default()
     }
 
+    /// Whether frontier cell `i` was given up as unobservable (TENSOR's fallback shares the rule,
+    /// and leaves such cells out of its information gain).
+    pub fn is_given_up(&self, i: usize) -> bool {
+        self.unobservable.get(i).copied().unwrap_or(false)
+    }
+
     fn give_up_target(&mut self, ctx: &PlanContext) {
         let grid = ctx.map.grid();
         for c in &self.target {

@@ -6,6 +6,7 @@
 
 pub mod greedy;
 pub mod search;
+pub mod tensor;
 
 use crate::config::{Config, SearchConfig};
 use crate::field::TensorField;
@@ -143,11 +144,12 @@ impl PlannerKind {
     }
 
     /// A fresh planner of this kind.
-    pub fn build(self, _cfg: &Config) -> Result<Box<dyn Planner>> {
+    pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new())),
+            PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(cfg))),
             other => Err(crate::Error::usage(format!(
-                "planner `{}` is not available in this version; available: greedy",
+                "planner `{}` is not available in this version; available: greedy, tensor",
                 other.name()
             ))),
         }
