@@ -197,6 +197,13 @@ pub struct ThpConfig {
 #[serde(deny_unknown_fields)]
 pub struct TensorConfig {
     pub min_info_gain: f64,
+    pub gain_radius_m: f64,
+    pub advect_substeps: usize,
+    pub dock_radius_m: f64,
+    pub wall_clearance_m: f64,
+    pub look_spacing_m: f64,
+    pub stall_timeout_s: f64,
+    pub topological_control: bool,
 }
 
 /// NBV-TSP: coverage sampling, heuristic gain, GA over a fixed-start open TSP (seed 002).
@@ -267,7 +274,22 @@ impl ThpConfig {
 
 impl TensorConfig {
     fn validate(&self) -> Result<()> {
-        non_negative("tensor.min_info_gain", self.min_info_gain)
+        non_negative("tensor.min_info_gain", self.min_info_gain)?;
+        for (key, v) in [
+            ("tensor.gain_radius_m", self.gain_radius_m),
+            ("tensor.dock_radius_m", self.dock_radius_m),
+            ("tensor.stall_timeout_s", self.stall_timeout_s),
+        ] {
+            positive(key, v)?;
+        }
+        non_negative("tensor.wall_clearance_m", self.wall_clearance_m)?;
+        non_negative("tensor.look_spacing_m", self.look_spacing_m)?;
+        if self.advect_substeps == 0 {
+            return Err(Error::usage(
+                "config key `tensor.advect_substeps` must be at least 1, got 0",
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -25,6 +25,12 @@ impl Greedy {
     pub fn new() -> Self {
         Self::default()
     }
+
+    /// Whether frontier cell `i` was given up as unobservable (TENSOR's fallback shares the rule,
+    /// and leaves such cells out of its information gain).
+    pub fn is_given_up(&self, i: usize) -> bool {
+        self.visits.is_unobservable(i)
+    }
 }
 
 impl Planner for Greedy {

@@ -8,6 +8,7 @@ pub mod frontier_visit;
 pub mod greedy;
 pub mod nbv;
 pub mod search;
+pub mod tensor;
 pub mod thp;
 pub mod tsp;
 
@@ -229,11 +230,8 @@ impl PlannerKind {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new())),
             PlannerKind::Thp => Ok(Box::new(thp::Thp::new(cfg))),
+            PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(cfg))),
             PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(cfg))),
-            other => Err(crate::Error::usage(format!(
-                "planner `{}` is not available in this version; available: thp, nbv, greedy",
-                other.name()
-            ))),
         }
     }
 }

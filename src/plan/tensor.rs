@@ -1,0 +1,1184 @@
+//! TENSOR: exploration guided by a time-varying tensor field (Xu et al. 2017, seed 001 §4–6).
+//!
+//! - **Field in time.** The planner owns a [`TensorField`] on the map's grid, updated every key
+//!   frame (`field.keyframe_period_s`, 4 s). Between key frames the field moves from the previous
+//!   key frame `T^{t-1}` to the new one `T^t` through the engine's space-time bi-harmonic
+//!   interpolation (Eq. 4–5) on a window around the robot; outside the window, the point-wise linear
+//!   interpolation the window's rim is fixed to. As in Alg. 1 the robot starts on the middle frame
+//!   `T_{K/2}` at a key frame and reaches `T_K = T^t` at the next one.
+//! - **Advection.** Every sub-step (`period / K`, 0.4 s) the pathline is traced through the
+//!   time-varying field for `advect_substeps` (3) sub-steps at full speed, oriented by the robot's
+//!   heading (the line field has no sign), cut at the first cell the shared cost rule forbids, and
+//!   followed for one sub-step by the shared motion executor.
+//! - **Wedges.** A pathline that ends at a wedge ends the path there (the executor slows down over
+//!   a path's last half metre); there the robot stops and re-plans (and, when the wedge's branches
+//!   offer no information, routes globally).
+//! - **Trisectors.** A pathline that comes within `dock_radius_m` of a trisector and leaves it again
+//!   (§6) is cut at its closest approach and ends at the trisector (docking); there the branch is
+//!   chosen by routing over the minimum spanning tree rooted at the trisector (below).
+//! - **Global routing (§4.2).** Edge cost `c(e) = 1 / Ī(e)`, `Ī` the length-weighted mean of the
+//!   information gain `I(p)` along the edge. The graph is the topology graph's edges plus each node's
+//!   open separatrices (leaves: lines into unknown space are where information is). Prim's tree is
+//!   grown from the root (the docked trisector, the wedge, or the nearest node, reached by A* first
+//!   when the robot is not on the graph); the target is the edge with `Ī ≥ min_info_gain` whose
+//!   tree path from the root plus its own cost is cheapest, and the branch is the first hop on it.
+//! - **Information gain.** `I(p) = min(1, n_f / n_side)`: `n_f` observable frontier cells (reachable,
+//!   not given up) in the square of half-size `gain_radius_m` around `p`, `n_side` the cells along
+//!   the square's side, so a frontier crossing the whole view square gives 1 and one frontier cell
+//!   gives `res / (2 gain_radius_m)` (0.025 by default). The paper's `I` is the entropy a best view
+//!   at `p` removes; frontier cells stand in for it (no TSDF, no view sampling here).
+//! - **Safety (§6).** A body closer than `wall_clearance_m` to a known wall first moves away along
+//!   the wall's normal when the known space allows it; a pathline into unknown space makes the robot
+//!   look around before entering (the paper adds a look-at view to its arm-held camera; the camera
+//!   here is fixed, so the robot turns).
+//! - **Termination.** `Complete` when no accessible edge has `Ī ≥ min_info_gain` and no reachable,
+//!   observable frontier is left. An edge is accessible when its nearer node is reachable and at
+//!   least 90 % of its samples are outside every known obstacle's inflation (a contact test of the
+//!   robot's body against the known scene; unknown cells pass, as in the paper).
+//!
+//! Deviations, each to keep the comparison fair or the run finite:
+//! - **Fallback.** When the graph offers nothing (no node reachable or no edge with gain) while
+//!   frontiers remain reachable, the robot drives to the nearest frontier with A* (the GREEDY planner,
+//!   embedded, so that its give-up rules for unobservable frontiers are shared). The same happens
+//!   when advection and routing twice in a row reveal nothing for `stall_timeout_s`. TENSOR alone
+//!   stalls when the field circulates around a room with no trisector on the way or when the points
+//!   lie where the map is not yet known; the paper's scenes were small and closed enough for that to
+//!   be rare. The counters `fallback_plans` and `stalls` say how often it happened.
+//! - **Out of scope.** The camera stays fixed and forward-facing: the arm trajectory optimisation of
+//!   §5 (Eq. 7–9, view selection, Gurobi) is not implemented. Moving a wedge inward after a
+//!   round trip (Fig. 9b) is not implemented either; the wedge's branches are routed away from
+//!   instead once they offer no gain.
+
+use super::greedy::Greedy;
+use super::{Action, PlanContext, Planner};
+use crate::config::{Config, FieldConfig, TensorConfig};
+use crate::field::advect::{trace, StopConditions, StopReason};
+use crate::field::{
+    biharmonic_window, DegenerateKind, FieldGrid, SpaceTimeParams, TensorField, TimeVaryingField,
+};
+use crate::grid::{Cell, GridSpec};
+use crate::map::Map;
+use crate::{Pose2, Result};
+use nalgebra::{Point2, Vector2};
+use std::collections::BTreeMap;
+
+/// Gain floor in `c(e) = 1 / max(Ī, GAIN_FLOOR)`: edges without gain keep a finite cost, so the
+/// tree spans every reachable node.
+const GAIN_FLOOR: f64 = 1e-3;
+/// Fraction of an edge's samples that must pass the contact test for the edge to be accessible.
+const ACCESSIBLE_FRACTION: f64 = 0.9;
+/// A node is snapped to a reachable cell within this distance, metres.
+const SNAP_M: f64 = 0.5;
+/// Newly known cells that count as progress for the stall watchdog.
+const PROGRESS_CELLS: usize = 5;
+/// Shortest pathline worth following, metres; shorter means advection is blocked here.
+const MIN_ADVANCE_M: f64 = 0.15;
+/// Failed approaches after which a node is no longer routed to.
+const MAX_NODE_FAILURES: u32 = 2;
+/// Conjugate-gradient tolerance of the space-time solve (relative residual).
+const SPACE_TIME_TOLERANCE: f64 = 1e-6;
+
+/// Information gain `I(p)` from a summed-area table of observable frontier cells (see module doc).
+pub struct GainMap {
+    grid: GridSpec,
+    /// `(nx + 1) × (ny + 1)` prefix sums.
+    sat: Vec<u32>,
+    half: i32,
+    norm: f64,
+}
+
+impl GainMap {
+    pub fn new(grid: &GridSpec, radius_m: f64, frontier: impl Fn(usize) -> bool) -> Self {
+        let (nx, ny) = (grid.nx, grid.ny);
+        let w = nx + 1;
+        let mut sat = vec![0u32; w * (ny + 1)];
+        for y in 0..ny {
+            let mut row = 0u32;
+            for x in 0..nx {
+                row += frontier(grid.index(Cell::new(x as i32, y as i32))) as u32;
+                sat[(y + 1) * w + x + 1] = sat[y * w + x + 1] + row;
+            }
+        }
+        let half = (radius_m / grid.res).round().max(1.0) as i32;
+        GainMap {
+            grid: *grid,
+            sat,
+            half,
+            norm: (2 * half + 1) as f64,
+        }
+    }
+
+    /// `I(p) ∈ [0, 1]`.
+    pub fn at(&self, p: Point2<f64>) -> f64 {
+        let c = self.grid.cell_at(p.x, p.y);
+        let (nx, ny) = (self.grid.nx as i32, self.grid.ny as i32);
+        let x0 = (c.x - self.half).clamp(0, nx) as usize;
+        let x1 = (c.x + self.half + 1).clamp(0, nx) as usize;
+        let y0 = (c.y - self.half).clamp(0, ny) as usize;
+        let y1 = (c.y + self.half + 1).clamp(0, ny) as usize;
+        let w = self.grid.nx + 1;
+        let n = self.sat[y1 * w + x1] + self.sat[y0 * w + x0]
+            - self.sat[y0 * w + x1]
+            - self.sat[y1 * w + x0];
+        (n as f64 / self.norm).min(1.0)
+    }
+
+    /// `Ī = (1/ℓ) ∫ I dp` along a polyline (midpoint rule per segment); `I` of the point for one point.
+    pub fn mean_along(&self, line: &[Point2<f64>]) -> f64 {
+        let (mut sum, mut len) = (0.0, 0.0);
+        for w in line.windows(2) {
+            let l = (w[1] - w[0]).norm();
+            sum += l * self.at(Point2::from((w[0].coords + w[1].coords) * 0.5));
+            len += l;
+        }
+        if len > 0.0 {
+            sum / len
+        } else {
+            line.first().map_or(0.0, |p| self.at(*p))
+        }
+    }
+}
+
+/// An edge of the routing graph: node `a` to node `b`, or an open separatrix of `a` (`b = None`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RouteEdge {
+    pub a: usize,
+    pub b: Option<usize>,
+    /// Mean information gain `Ī(e)`.
+    pub gain: f64,
+    /// From `a` to `b` (or to the separatrix's end).
+    pub polyline: Vec<Point2<f64>>,
+}
+
+impl RouteEdge {
+    /// `c(e) = 1 / Ī(e)` (§4.2), with the gain floored so that the cost stays finite.
+    pub fn cost(&self) -> f64 {
+        1.0 / self.gain.max(GAIN_FLOOR)
+    }
+}
+
+/// A tree grown from a root: per node the edge to its parent and the summed cost from the root.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tree {
+    pub parent_edge: Vec<Option<usize>>,
+    /// Tree-path cost from the root (∞ outside the root's component).
+    pub dist: Vec<f64>,
+}
+
+/// Prim's minimum spanning tree of `root`'s component over the node–node edges (leaves ignored).
+/// Ties go to the lower edge index, so the tree is deterministic.
+pub fn min_spanning_tree(n: usize, edges: &[RouteEdge], root: usize) -> Tree {
+    let mut tree = Tree {
+        parent_edge: vec![None; n],
+        dist: vec![f64::INFINITY; n],
+    };
+    if root >= n {
+        return tree;
+    }
+    let mut inside = vec![false; n];
+    inside[root] = true;
+    tree.dist[root] = 0.0;
+    loop {
+        let mut best: Option<(f64, usize, usize)> = None;
+        for (k, e) in edges.iter().enumerate() {
+            let Some(b) = e.b else { continue };
+            let to = match (inside[e.a], inside[b]) {
+                (true, false) => b,
+                (false, true) => e.a,
+                _ => continue,
+            };
+            let c = e.cost();
+            if best.is_none_or(|(bc, bk, _)| (c, k) < (bc, bk)) {
+                best = Some((c, k, to));
+            }
+        }
+        let Some((c, k, to)) = best else { break };
+        let e = &edges[k];
+        let from = if e.a == to {
+            e.b.expect("node edge")
+        } else {
+            e.a
+        };
+        inside[to] = true;
+        tree.parent_edge[to] = Some(k);
+        tree.dist[to] = tree.dist[from] + c;
+    }
+    tree
+}
+
+/// Where global routing sends the robot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Target {
+    /// Index of the target edge in the routing graph.
+    pub edge: usize,
+    /// The node at which the robot enters the target edge (its end nearer the root in the tree).
+    pub node: usize,
+    /// Tree-path cost from the root to `node` plus the edge's own cost.
+    pub cost: f64,
+}
+
+/// The cheapest edge with `Ī ≥ threshold` reached over the tree (§4.2), or `None` when no edge of
+/// the root's component has gain: the termination condition. A non-tree edge can be chosen only
+/// through a tree node; by the cut property, its tree path holds edges of at least its gain.
+pub fn select_target(edges: &[RouteEdge], tree: &Tree, threshold: f64) -> Option<Target> {
+    let mut best: Option<Target> = None;
+    for (k, e) in edges.iter().enumerate() {
+        if e.gain < threshold {
+            continue;
+        }
+        let node = match e.b {
+            None => e.a,
+            Some(b) => {
+                if tree.dist[b] < tree.dist[e.a] {
+                    b
+                } else {
+                    e.a
+                }
+            }
+        };
+        if !tree.dist[node].is_finite() {
+            continue;
+        }
+        let cost = tree.dist[node] + e.cost();
+        if best.as_ref().is_none_or(|t| (cost, k) < (t.cost, t.edge)) {
+            best = Some(Target {
+                edge: k,
+                node,
+                cost,
+            });
+        }
+    }
+    best
+}
+
+/// The direction in which to leave `node` along `edge`: toward the edge's point about `reach_m`
+/// along it from that node.
+pub fn leaving_heading(edge: &RouteEdge, node: usize, reach_m: f64) -> Option<f64> {
+    let forward = edge.a == node;
+    let pts: Vec<Point2<f64>> = if forward {
+        edge.polyline.clone()
+    } else {
+        edge.polyline.iter().rev().copied().collect()
+    };
+    let start = *pts.first()?;
+    let mut along = 0.0;
+    let mut target = *pts.last()?;
+    for w in pts.windows(2) {
+        along += (w[1] - w[0]).norm();
+        if along >= reach_m {
+            target = w[1];
+            break;
+        }
+    }
+    let d: Vector2<f64> = target - start;
+    (d.norm() > 1e-9).then(|| d.y.atan2(d.x))
+}
+
+/// What the routing step decided.
+enum Routed {
+    /// The robot is at the entry node: leave it along this heading.
+    Leave { heading: f64, node_id: u64 },
+    /// Drive there first.
+    Go(Action),
+    /// No accessible edge with gain (or no reachable node).
+    Nothing,
+}
+
+/// Why the robot is where it is, when it arrives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ArrivalKind {
+    Wedge,
+    Dock,
+    Route { heading: Option<f64> },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Arrival {
+    id: u64,
+    kind: ArrivalKind,
+}
+
+/// The action in progress and what it is for.
+#[derive(Clone, Debug, PartialEq)]
+enum Current {
+    None,
+    Advect {
+        started_s: f64,
+        cells: Vec<usize>,
+        wedge: Option<(u64, Point2<f64>)>,
+    },
+    Dock {
+        id: u64,
+        pos: Point2<f64>,
+        cells: Vec<usize>,
+    },
+    Route {
+        id: u64,
+        pos: Point2<f64>,
+        heading: Option<f64>,
+        cells: Vec<usize>,
+    },
+    Escape,
+    Look,
+    Fallback,
+}
+
+/// A degenerate point usable now: on a traversable cell.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    id: u64,
+    kind: DegenerateKind,
+    pos: Point2<f64>,
+}
+
+/// Deterministic counters (see [`Planner::stats`]).
+#[derive(Clone, Debug, Default)]
+struct Stats {
+    key_frames: u64,
+    retraces: u64,
+    window_solves: u64,
+    wedge_stops: u64,
+    trisector_dockings: u64,
+    branch_choices: u64,
+    mst_routes: u64,
+    fallback_plans: u64,
+    stalls: u64,
+    looks: u64,
+    wall_escapes: u64,
+    cancelled_pairs: u64,
+    moved_points: u64,
+}
+
+/// The TENSOR planner.
+pub struct Tensor {
+    cfg: TensorConfig,
+    field_cfg: FieldConfig,
+    field: Option<TensorField>,
+    /// The planning field of the previous key frame (`None` before the second one).
+    prev: Option<FieldGrid>,
+    key_time_s: f64,
+    next_key_s: f64,
+    window: Option<TimeVaryingField>,
+    window_center: Point2<f64>,
+    greedy: Greedy,
+    current: Current,
+    arrived: Option<Arrival>,
+    /// Heading for the next pathline instead of the robot's (a chosen branch).
+    heading_override: Option<f64>,
+    /// A node just handled: ignored by docking and pathline stops until the robot has left it.
+    ignore: Option<(u64, Point2<f64>)>,
+    /// The graph offered nothing: GREEDY drives until it does again.
+    in_fallback: bool,
+    known_cells: usize,
+    last_progress_s: f64,
+    stalls_in_a_row: u32,
+    looks_at: Vec<Point2<f64>>,
+    last_escape_s: f64,
+    node_failures: BTreeMap<u64, u32>,
+    route_target: Option<Point2<f64>>,
+    max_speed: f64,
+    /// The last action was an advection step (the stall watchdog runs while this holds).
+    advecting: bool,
+    stats: Stats,
+}
+
+impl Tensor {
+    pub fn new(cfg: &Config) -> Self {
+        let mut field_cfg = cfg.field.clone();
+        if cfg.tensor.topological_control {
+            field_cfg.cancel_pairs = true;
+            field_cfg.move_wedges_into_corners = true;
+            field_cfg.move_trisectors_from_obstacles = true;
+        }
+        Tensor {
+            cfg: cfg.tensor.clone(),
+            field_cfg,
+            field: None,
+            prev: None,
+            key_time_s: 0.0,
+            next_key_s: 0.0,
+            window: None,
+            window_center: Point2::origin(),
+            greedy: Greedy::new(),
+            current: Current::None,
+            arrived: None,
+            heading_override: None,
+            ignore: None,
+            in_fallback: false,
+            known_cells: 0,
+            last_progress_s: 0.0,
+            stalls_in_a_row: 0,
+            looks_at: Vec::new(),
+            last_escape_s: f64::NEG_INFINITY,
+            node_failures: BTreeMap::new(),
+            route_target: None,
+            max_speed: cfg.robot.max_speed_mps,
+            advecting: false,
+            stats: Stats::default(),
+        }
+    }
+
+    /// Sub-step duration, seconds (key-frame period / K).
+    fn substep_s(&self) -> f64 {
+        self.field_cfg.keyframe_period_s / self.field_cfg.substeps.max(1) as f64
+    }
+
+    /// Field time τ ∈ [0, 1] between the previous key frame (0) and the last one (1) at time `t`:
+    /// from the middle frame at a key frame to the last at the next key frame (Alg. 1).
+    fn tau(&self, t: f64) -> f64 {
+        let k = self.field_cfg.substeps.max(1);
+        let m = (k / 2) as f64 / k as f64;
+        (m + (1.0 - m) * (t - self.key_time_s) / self.field_cfg.keyframe_period_s).clamp(0.0, 1.0)
+    }
+
+    /// `(a, b)` of the time-varying field at `p` and time `t`.
+    fn sample(&self, p: Point2<f64>, t: f64) -> Option<[f64; 2]> {
+        let cur = self.field.as_ref()?.field();
+        let Some(prev) = &self.prev else {
+            return cur.sample(p).map(|s| [s.a, s.b]);
+        };
+        let tau = self.tau(t);
+        if let Some(v) = self.window.as_ref().and_then(|w| w.sample(p, tau)) {
+            return Some(v);
+        }
+        let (a, b) = (prev.sample(p)?, cur.sample(p)?);
+        Some([a.a * (1.0 - tau) + b.a * tau, a.b * (1.0 - tau) + b.b * tau])
+    }
+
+    /// Length of one traced pathline: `advect_substeps` sub-steps at full speed.
+    fn pathline_length(&self, max_speed: f64) -> f64 {
+        self.cfg.advect_substeps as f64 * self.substep_s() * max_speed
+    }
+
+    /// Graph nodes on traversable cells (wedges and trisectors), in graph order.
+    fn usable_nodes(&self, map: &Map) -> Vec<Node> {
+        let Some(field) = &self.field else {
+            return Vec::new();
+        };
+        let grid = map.grid();
+        field
+            .points()
+            .iter()
+            .filter(|n| n.kind != DegenerateKind::Other)
+            .filter(|n| {
+                grid.cell_of(n.pos())
+                    .is_some_and(|c| map.is_traversable(grid.index(c)))
+            })
+            .map(|n| Node {
+                id: n.id,
+                kind: n.kind,
+                pos: n.pos(),
+            })
+            .collect()
+    }
+
+    fn note_progress(&mut self, ctx: &PlanContext) {
+        let known = ctx
+            .map
+            .cell_states()
+            .iter()
+            .filter(|s| **s != crate::map::CellState::Unknown)
+            .count();
+        if known >= self.known_cells + PROGRESS_CELLS {
+            self.known_cells = known;
+            self.last_progress_s = ctx.time_s;
+            self.stalls_in_a_row = 0;
+        }
+    }
+
+    /// The routing graph with gains, the snapped node cells, and the distance field, for routing.
+    fn routing_graph(
+        &self,
+        ctx: &mut PlanContext,
+    ) -> Option<(
+        Vec<Node>,
+        Vec<usize>,
+        Vec<RouteEdge>,
+        super::search::DistanceField,
+    )> {
+        let field = self.field.as_ref()?;
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        let start = grid.index(grid.cell_of(robot)?);
+        let map = ctx.map;
+        let search_cfg = &ctx.cfg.search;
+        let df = ctx.search.distance_field(
+            &grid,
+            |i| super::step_cost(map, search_cfg, robot, i),
+            start,
+            f32::INFINITY,
+        );
+        let gains = GainMap::new(&grid, self.cfg.gain_radius_m, |i| {
+            map.is_frontier(i) && !self.greedy.is_given_up(i) && df.cost_to(i).is_some()
+        });
+        // Nodes snapped to their nearest reachable cell (graph index → routing index).
+        let snap = (SNAP_M / grid.res).ceil() as i32;
+        let mut nodes = Vec::new();
+        let mut cells = Vec::new();
+        let mut index_of = vec![usize::MAX; field.points().len()];
+        for (k, n) in field.points().iter().enumerate() {
+            if n.kind == DegenerateKind::Other
+                || self
+                    .node_failures
+                    .get(&n.id)
+                    .is_some_and(|&f| f >= MAX_NODE_FAILURES)
+            {
+                continue;
+            }
+            let Some(c) = grid.cell_of(n.pos()) else {
+                continue;
+            };
+            let mut best: Option<(f64, usize)> = None;
+            for dy in -snap..=snap {
+                for dx in -snap..=snap {
+                    let Some(i) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                        continue;
+                    };
+                    if df.cost_to(i).is_none() || !map.is_traversable(i) {
+                        continue;
+                    }
+                    let d = (grid.center(grid.cell(i)) - n.pos()).norm();
+                    if d <= SNAP_M && best.is_none_or(|(bd, bi)| (d, i) < (bd, bi)) {
+                        best = Some((d, i));
+                    }
+                }
+            }
+            if let Some((_, i)) = best {
+                index_of[k] = nodes.len();
+                nodes.push(Node {
+                    id: n.id,
+                    kind: n.kind,
+                    pos: n.pos(),
+                });
+                cells.push(i);
+            }
+        }
+        let contact_ok = |line: &[Point2<f64>]| {
+            let ok = line
+                .iter()
+                .filter(|p| {
+                    grid.cell_of(**p).is_some_and(|c| {
+                        let i = grid.index(c);
+                        !map.is_inflated(i) && !map.is_obstacle(i)
+                    })
+                })
+                .count();
+            !line.is_empty() && ok as f64 >= ACCESSIBLE_FRACTION * line.len() as f64
+        };
+        let mut edges = Vec::new();
+        let graph = field.graph();
+        for e in &graph.edges {
+            let (a, b) = (index_of[e.a], index_of[e.b]);
+            if a == usize::MAX || b == usize::MAX {
+                continue;
+            }
+            let polyline: Vec<Point2<f64>> =
+                e.polyline.iter().map(|p| Point2::new(p[0], p[1])).collect();
+            if !contact_ok(&polyline) {
+                continue;
+            }
+            edges.push(RouteEdge {
+                a,
+                b: Some(b),
+                gain: gains.mean_along(&polyline),
+                polyline,
+            });
+        }
+        for s in &graph.separatrices {
+            let open = !matches!(s.end, StopReason::NearDegenerate(j) if j != s.from);
+            let a = index_of[s.from];
+            if !open || a == usize::MAX {
+                continue;
+            }
+            let polyline: Vec<Point2<f64>> =
+                s.polyline.iter().map(|p| Point2::new(p[0], p[1])).collect();
+            if polyline.len() < 2 || !contact_ok(&polyline) {
+                continue;
+            }
+            edges.push(RouteEdge {
+                a,
+                b: None,
+                gain: gains.mean_along(&polyline),
+                polyline,
+            });
+        }
+        Some((nodes, cells, edges, df))
+    }
+
+    /// Global routing (§4.2) from the node `root_id`, or from the nearest reachable node.
+    fn route(&mut self, ctx: &mut PlanContext, root_id: Option<u64>) -> Routed {
+        let Some((nodes, cells, edges, df)) = self.routing_graph(ctx) else {
+            return Routed::Nothing;
+        };
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        let root = match root_id.and_then(|id| nodes.iter().position(|n| n.id == id)) {
+            Some(r) => r,
+            None => {
+                // Not on the graph: the nearest node by path cost (ties: lower index).
+                let Some(r) = (0..nodes.len())
+                    .filter_map(|k| df.cost_to(cells[k]).map(|c| (c, k)))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(_, k)| k)
+                else {
+                    return Routed::Nothing;
+                };
+                r
+            }
+        };
+        let tree = min_spanning_tree(nodes.len(), &edges, root);
+        let Some(target) = select_target(&edges, &tree, self.cfg.min_info_gain) else {
+            return Routed::Nothing;
+        };
+        let at_root = (nodes[root].pos - robot).norm() <= self.cfg.dock_radius_m;
+        if !at_root {
+            // Get onto the graph first: A* to the nearest node, routing again there.
+            return self.go_to_node(&grid, &df, &nodes[root], cells[root], None);
+        }
+        self.stats.mst_routes += 1;
+        let reach = self.field_cfg.arrive_radius_m * 2.0;
+        let heading = leaving_heading(&edges[target.edge], target.node, reach);
+        if target.node == root {
+            self.stats.branch_choices += 1;
+            return match heading {
+                Some(h) => Routed::Leave {
+                    heading: h,
+                    node_id: nodes[root].id,
+                },
+                None => Routed::Nothing,
+            };
+        }
+        let node = nodes[target.node];
+        self.go_to_node(&grid, &df, &node, cells[target.node], heading)
+    }
+
+    fn go_to_node(
+        &mut self,
+        grid: &GridSpec,
+        df: &super::search::DistanceField,
+        node: &Node,
+        cell: usize,
+        heading: Option<f64>,
+    ) -> Routed {
+        let Some(path) = df.path_to(grid, cell) else {
+            return Routed::Nothing;
+        };
+        let pts: Vec<Point2<f64>> = path.cells.iter().map(|c| grid.center(*c)).collect();
+        self.route_target = Some(node.pos);
+        self.advecting = false;
+        self.current = Current::Route {
+            id: node.id,
+            pos: node.pos,
+            heading,
+            cells: path.cells.iter().skip(1).map(|c| grid.index(*c)).collect(),
+        };
+        if pts.len() < 2 {
+            // Already in the node's cell: arrive at once.
+            self.current = Current::None;
+            self.arrived = Some(Arrival {
+                id: node.id,
+                kind: ArrivalKind::Route { heading },
+            });
+            return Routed::Go(Action::LookAround);
+        }
+        Routed::Go(Action::Follow {
+            path: pts,
+            look_on_arrival: false,
+        })
+    }
+
+    /// GREEDY's nearest frontier; `Complete` when none is left.
+    fn fallback(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        self.stats.fallback_plans += 1;
+        self.route_target = None;
+        self.advecting = false;
+        let a = self.greedy.plan(ctx)?;
+        self.current = if a == Action::Complete {
+            Current::None
+        } else {
+            Current::Fallback
+        };
+        Ok(a)
+    }
+
+    /// Whether some accessible edge still has gain (ends the fallback mode).
+    fn graph_has_gain(&mut self, ctx: &mut PlanContext) -> bool {
+        // Every routing node is reachable (snapped to a reachable cell), so every edge kept is
+        // accessible.
+        self.routing_graph(ctx)
+            .is_some_and(|(_, _, edges, _)| edges.iter().any(|e| e.gain >= self.cfg.min_info_gain))
+    }
+
+    /// Moves away along the normal of a wall the body is closer than `wall_clearance_m` to, when
+    /// the known free space allows a real gain of clearance.
+    fn wall_escape(&mut self, ctx: &PlanContext) -> Option<Action> {
+        let robot = ctx.pose.position();
+        let want = ctx.cfg.robot.radius_m + self.cfg.wall_clearance_m;
+        if ctx.time_s - self.last_escape_s < self.field_cfg.keyframe_period_s {
+            return None;
+        }
+        let o = ctx.map.nearest_obstacle_point(robot, want)?;
+        let d = (robot - o).norm();
+        if d < 1e-6 {
+            return None;
+        }
+        let n = (robot - o) / d;
+        let grid = ctx.map.grid();
+        let step = 0.5 * grid.res;
+        let mut best = robot;
+        let mut s = step;
+        while s <= want - d + 1e-9 {
+            let q = robot + n * s;
+            let ok = grid.cell_of(q).is_some_and(|c| {
+                let i = grid.index(c);
+                ctx.map.is_traversable(i) && ctx.passable(i)
+            });
+            if !ok {
+                break;
+            }
+            best = q;
+            s += step;
+        }
+        let gained = ctx
+            .map
+            .nearest_obstacle_point(best, want)
+            .map_or(want, |q| (q - best).norm())
+            - d;
+        if gained < 0.1 {
+            return None;
+        }
+        self.last_escape_s = ctx.time_s;
+        self.stats.wall_escapes += 1;
+        self.current = Current::Escape;
+        Some(Action::Follow {
+            path: vec![robot, best],
+            look_on_arrival: false,
+        })
+    }
+
+    /// One advection sub-step (§4.2) with the wedge, trisector and unknown-space rules.
+    fn advect(&mut self, ctx: &mut PlanContext, depth: u32) -> Result<Action> {
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        if !self.advecting {
+            // The watchdog times advection only.
+            self.last_progress_s = self.last_progress_s.max(ctx.time_s);
+        }
+        self.advecting = false;
+        if let Some((_, pos)) = self.ignore {
+            if (pos - robot).norm() > 2.0 * self.cfg.dock_radius_m {
+                self.ignore = None;
+            }
+        }
+        let ignore_id = self.ignore.map(|(id, _)| id);
+        let nodes: Vec<Node> = self
+            .usable_nodes(ctx.map)
+            .into_iter()
+            .filter(|n| Some(n.id) != ignore_id)
+            .collect();
+        let pts: Vec<Point2<f64>> = nodes.iter().map(|n| n.pos).collect();
+        let heading = self.heading_override.take().unwrap_or(ctx.pose.yaw);
+        let v = ctx.cfg.robot.max_speed_mps;
+        let len = self.pathline_length(v);
+        let stop = StopConditions {
+            grid: &grid,
+            obstacle: None,
+            unknown: None,
+            degenerate_points: &pts,
+            degenerate_radius_m: self.field_cfg.arrive_radius_m,
+            origin: None,
+        };
+        let t0 = ctx.time_s;
+        let (mut line, reason) = trace(
+            |p, s| self.sample(p, t0 + s / v),
+            robot,
+            heading,
+            len,
+            self.field_cfg.rk4_step_m,
+            &stop,
+        );
+        self.stats.retraces += 1;
+        // At a node already: handle the arrival there.
+        if let (StopReason::NearDegenerate(k), true) = (reason, line.len() <= 1) {
+            if depth < 2 {
+                let n = nodes[k];
+                self.arrived = Some(Arrival {
+                    id: n.id,
+                    kind: if n.kind == DegenerateKind::Trisector {
+                        self.stats.trisector_dockings += 1;
+                        ArrivalKind::Dock
+                    } else {
+                        ArrivalKind::Wedge
+                    },
+                });
+                return self.plan_at(ctx, depth + 1);
+            }
+        }
+        let cut = line
+            .iter()
+            .skip(1)
+            .position(|p| {
+                grid.cell_of(*p)
+                    .is_none_or(|c| !ctx.passable(grid.index(c)))
+            })
+            .map(|k| k + 1)
+            .unwrap_or(line.len());
+        let whole = cut == line.len();
+        line.truncate(cut);
+        // Docking: the line approaches a trisector within the radius and leaves it again (or
+        // ends at it); cut at the closest approach and end at the trisector.
+        let mut dock: Option<(usize, usize)> = None;
+        for (k, n) in nodes.iter().enumerate() {
+            if n.kind != DegenerateKind::Trisector {
+                continue;
+            }
+            let Some((j, d)) = line
+                .iter()
+                .enumerate()
+                .map(|(j, p)| (j, (p - n.pos).norm()))
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+            else {
+                continue;
+            };
+            let ends_here = whole && reason == StopReason::NearDegenerate(k);
+            if d < self.cfg.dock_radius_m
+                && (j + 1 < line.len() || ends_here)
+                && dock.is_none_or(|(_, bj)| j < bj)
+            {
+                dock = Some((k, j));
+            }
+        }
+        if let Some((k, j)) = dock {
+            let n = nodes[k];
+            let mut path: Vec<Point2<f64>> = line[..=j].to_vec();
+            if grid
+                .cell_of(n.pos)
+                .is_some_and(|c| ctx.passable(grid.index(c)))
+            {
+                path.push(n.pos);
+            }
+            self.stats.trisector_dockings += 1;
+            if path.len() < 2 || path_length(&path) < ctx.cfg.motion.goal_tolerance_m {
+                if depth < 2 {
+                    self.arrived = Some(Arrival {
+                        id: n.id,
+                        kind: ArrivalKind::Dock,
+                    });
+                    return self.plan_at(ctx, depth + 1);
+                }
+            } else {
+                self.advecting = true;
+                self.current = Current::Dock {
+                    id: n.id,
+                    pos: n.pos,
+                    cells: path_cells(&grid, &path),
+                };
+                return Ok(Action::Follow {
+                    path,
+                    look_on_arrival: false,
+                });
+            }
+        }
+        if path_length(&line) < MIN_ADVANCE_M {
+            // Advection is blocked here: route globally (or hand over).
+            if depth < 2 {
+                return match self.route(ctx, None) {
+                    Routed::Leave { heading, node_id } => {
+                        self.heading_override = Some(heading);
+                        self.ignore = Some((node_id, robot));
+                        self.advect(ctx, depth + 1)
+                    }
+                    Routed::Go(a) => Ok(a),
+                    Routed::Nothing => {
+                        self.in_fallback = true;
+                        self.fallback(ctx)
+                    }
+                };
+            }
+            return self.fallback(ctx);
+        }
+        // A path into unknown space: look first (once per spot).
+        let into_unknown = line.iter().skip(1).any(|p| {
+            grid.cell_of(*p)
+                .is_some_and(|c| ctx.map.is_unknown(grid.index(c)))
+        });
+        if into_unknown
+            && !self
+                .looks_at
+                .iter()
+                .any(|q| (q - robot).norm() < self.cfg.look_spacing_m)
+        {
+            self.looks_at.push(robot);
+            self.stats.looks += 1;
+            self.advecting = true;
+            self.current = Current::Look;
+            return Ok(Action::LookAround);
+        }
+        let wedge = match reason {
+            StopReason::NearDegenerate(k) if whole && nodes[k].kind == DegenerateKind::Wedge => {
+                Some((nodes[k].id, nodes[k].pos))
+            }
+            _ => None,
+        };
+        self.advecting = true;
+        self.current = Current::Advect {
+            started_s: ctx.time_s,
+            cells: path_cells(&grid, &line),
+            wedge,
+        };
+        self.route_target = None;
+        Ok(Action::Follow {
+            path: line,
+            look_on_arrival: false,
+        })
+    }
+
+    /// Plans after an arrival at a node (or without one), then advects.
+    fn plan_at(&mut self, ctx: &mut PlanContext, depth: u32) -> Result<Action> {
+        if let Some(arr) = self.arrived.take() {
+            let pos = self
+                .field
+                .as_ref()
+                .and_then(|f| f.points().iter().find(|n| n.id == arr.id))
+                .map_or(ctx.pose.position(), |n| n.pos());
+            self.ignore = Some((arr.id, pos));
+            let branch = match arr.kind {
+                ArrivalKind::Route { heading: Some(h) } => {
+                    self.heading_override = Some(h);
+                    false
+                }
+                ArrivalKind::Route { heading: None } | ArrivalKind::Dock => true,
+                ArrivalKind::Wedge => {
+                    self.stats.wedge_stops += 1;
+                    // Stop and re-plan; route away when the wedge's branches offer nothing.
+                    !self.node_has_gain(ctx, arr.id)
+                }
+            };
+            if branch {
+                match self.route(ctx, Some(arr.id)) {
+                    Routed::Leave { heading, .. } => self.heading_override = Some(heading),
+                    Routed::Go(a) => return Ok(a),
+                    Routed::Nothing => {
+                        if arr.kind != ArrivalKind::Wedge {
+                            self.in_fallback = true;
+                            return self.fallback(ctx);
+                        }
+                    }
+                }
+            }
+        }
+        self.advect(ctx, depth)
+    }
+
+    /// Whether an edge or open separatrix at node `id` has gain.
+    fn node_has_gain(&mut self, ctx: &mut PlanContext, id: u64) -> bool {
+        let Some((nodes, _, edges, _)) = self.routing_graph(ctx) else {
+            return false;
+        };
+        let Some(k) = nodes.iter().position(|n| n.id == id) else {
+            return false;
+        };
+        edges
+            .iter()
+            .any(|e| (e.a == k || e.b == Some(k)) && e.gain >= self.cfg.min_info_gain)
+    }
+
+    /// Solves the space-time window around where the next pathline will run, when it is stale.
+    fn refresh_window(&mut self, pose: Pose2, max_speed: f64) {
+        let (Some(prev), Some(field)) = (&self.prev, &self.field) else {
+            return;
+        };
+        let len = self.pathline_length(max_speed);
+        let ahead = pose.position() + Vector2::new(pose.yaw.cos(), pose.yaw.sin()) * (0.5 * len);
+        let r = self.field_cfg.timevary_radius_m;
+        if self.window.is_some() && (ahead - self.window_center).norm() <= 0.5 * r {
+            return;
+        }
+        let params = SpaceTimeParams {
+            substeps: self.field_cfg.substeps.max(1),
+            omega_s: self.field_cfg.omega_s,
+            omega_t: self.field_cfg.omega_t,
+            alpha: self.field_cfg.alpha,
+            max_iterations: self.field_cfg.timevary_max_iterations,
+            tolerance: SPACE_TIME_TOLERANCE,
+        };
+        self.window = biharmonic_window(prev, field.field(), ahead, r, &params);
+        self.window_center = ahead;
+        self.stats.window_solves += 1;
+    }
+}
+
+fn path_length(line: &[Point2<f64>]) -> f64 {
+    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// Cells a path passes through after its first point (for the blockage check), without repeats.
+fn path_cells(grid: &GridSpec, path: &[Point2<f64>]) -> Vec<usize> {
+    let mut out: Vec<usize> = Vec::new();
+    for p in path.iter().skip(1) {
+        if let Some(c) = grid.cell_of(*p) {
+            let i = grid.index(c);
+            if out.last() != Some(&i) {
+                out.push(i);
+            }
+        }
+    }
+    out
+}
+
+impl Planner for Tensor {
+    fn name(&self) -> &'static str {
+        "tensor"
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        if self.field.is_none() {
+            return Ok(Action::LookAround);
+        }
+        self.note_progress(ctx);
+        if self.arrived.is_some() {
+            self.in_fallback = false;
+            return self.plan_at(ctx, 0);
+        }
+        if self.in_fallback {
+            if self.graph_has_gain(ctx) {
+                self.in_fallback = false;
+            } else {
+                return self.fallback(ctx);
+            }
+        }
+        if ctx.time_s - self.last_progress_s >= self.cfg.stall_timeout_s {
+            self.stats.stalls += 1;
+            self.stalls_in_a_row += 1;
+            self.last_progress_s = ctx.time_s;
+            if self.stalls_in_a_row >= 2 {
+                self.stalls_in_a_row = 0;
+                return self.fallback(ctx);
+            }
+            match self.route(ctx, None) {
+                Routed::Leave { heading, node_id } => {
+                    self.heading_override = Some(heading);
+                    self.ignore = Some((node_id, ctx.pose.position()));
+                }
+                Routed::Go(a) => return Ok(a),
+                Routed::Nothing => {
+                    self.in_fallback = true;
+                    return self.fallback(ctx);
+                }
+            }
+        }
+        if let Some(a) = self.wall_escape(ctx) {
+            return Ok(a);
+        }
+        self.advect(ctx, 0)
+    }
+
+    fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        let blocked = |cells: &[usize]| cells.iter().any(|&i| !ctx.passable(i));
+        match &self.current {
+            Current::Advect {
+                started_s, cells, ..
+            } => ctx.time_s - started_s >= self.substep_s() - 1e-9 || blocked(cells),
+            Current::Dock { cells, .. } | Current::Route { cells, .. } => blocked(cells),
+            Current::Fallback => self.greedy.is_outdated(ctx, action),
+            Current::None | Current::Escape | Current::Look => false,
+        }
+    }
+
+    fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
+        let robot = ctx.pose.position();
+        let near = |pos: Point2<f64>, r: f64| (pos - robot).norm() <= r;
+        match std::mem::replace(&mut self.current, Current::None) {
+            Current::Advect {
+                wedge: Some((id, pos)),
+                ..
+            } if near(
+                pos,
+                self.field_cfg.arrive_radius_m + ctx.cfg.motion.goal_tolerance_m,
+            ) =>
+            {
+                self.arrived = Some(Arrival {
+                    id,
+                    kind: ArrivalKind::Wedge,
+                });
+            }
+            Current::Dock { id, pos, .. } => {
+                if reached || near(pos, self.cfg.dock_radius_m) {
+                    self.arrived = Some(Arrival {
+                        id,
+                        kind: ArrivalKind::Dock,
+                    });
+                } else {
+                    *self.node_failures.entry(id).or_default() += 1;
+                }
+            }
+            Current::Route {
+                id, pos, heading, ..
+            } => {
+                if reached || near(pos, self.cfg.dock_radius_m) {
+                    self.arrived = Some(Arrival {
+                        id,
+                        kind: ArrivalKind::Route { heading },
+                    });
+                } else {
+                    *self.node_failures.entry(id).or_default() += 1;
+                }
+            }
+            Current::Fallback => self.greedy.action_finished(ctx, reached),
+            _ => {}
+        }
+    }
+
+    fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
+        let field = self
+            .field
+            .get_or_insert_with(|| TensorField::new(*map.grid(), &self.field_cfg));
+        if time_s + 1e-9 >= self.next_key_s {
+            let before = (self.stats.key_frames > 0).then(|| field.field().clone());
+            field.update(map)?;
+            let c = field.control_counts();
+            self.stats.cancelled_pairs += c.cancelled_pairs as u64;
+            self.stats.moved_points += (c.moved_wedges + c.moved_trisectors) as u64;
+            self.stats.key_frames += 1;
+            self.prev = before;
+            self.key_time_s = time_s;
+            self.next_key_s = self.stats.key_frames as f64 * self.field_cfg.keyframe_period_s;
+            self.window = None;
+        }
+        // The window matters only to advection, which re-traces every sub-step.
+        if matches!(self.current, Current::Advect { .. } | Current::None) {
+            self.refresh_window(pose, self.max_speed);
+        }
+        Ok(())
+    }
+
+    fn field(&self) -> Option<&TensorField> {
+        self.field.as_ref()
+    }
+
+    fn tour(&self) -> Vec<Point2<f64>> {
+        self.route_target.into_iter().collect()
+    }
+
+    fn stats(&self) -> BTreeMap<String, f64> {
+        let s = &self.stats;
+        [
+            ("key_frames", s.key_frames),
+            ("retraces", s.retraces),
+            ("window_solves", s.window_solves),
+            ("wedge_stops", s.wedge_stops),
+            ("trisector_dockings", s.trisector_dockings),
+            ("branch_choices", s.branch_choices),
+            ("mst_routes", s.mst_routes),
+            ("fallback_plans", s.fallback_plans),
+            ("stalls", s.stalls),
+            ("looks", s.looks),
+            ("wall_escapes", s.wall_escapes),
+            ("cancelled_pairs", s.cancelled_pairs),
+            ("moved_points", s.moved_points),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v as f64))
+        .collect()
+    }
+}
