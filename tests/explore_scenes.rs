@@ -1,5 +1,6 @@
 //! GREEDY explores every shipped scene to the end: complete, nearly all the explorable volume and
-//! surface observed, and never a collision.
+//! surface observed, and never a collision. THP, TENSOR and NBV-TSP finish every shipped scene
+//! without a collision, an error or a stall.
 
 mod common;
 
@@ -39,5 +40,48 @@ fn greedy_completes_every_shipped_scene() {
             ));
         }
     }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Every scene with `planner`: the run must end `complete` or `budget` (never `stuck` or `error`)
+/// with no collision; returns one line per violation.
+fn finishes_every_scene(planner: PlannerKind) -> Vec<String> {
+    let cfg = Config::default();
+    let mut failures = Vec::new();
+    for path in common::shipped_scenes() {
+        let scene = scene::load(&path, &cfg.scene).unwrap();
+        let world = World::new(&scene, &cfg, None).unwrap();
+        let out = sim::run(&scene, world, &cfg, planner, &mut sim::NoObserver).unwrap();
+        let r = &out.result;
+        let finished = matches!(r.termination, Termination::Complete | Termination::Budget);
+        if !finished || r.collisions != 0 {
+            failures.push(format!(
+                "{} {}: {} completeness {:.3} collisions {}",
+                planner.name(),
+                r.scene,
+                r.termination.as_str(),
+                r.completeness,
+                r.collisions
+            ));
+        }
+    }
+    failures
+}
+
+#[test]
+fn thp_finishes_every_shipped_scene() {
+    let failures = finishes_every_scene(PlannerKind::Thp);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn tensor_finishes_every_shipped_scene() {
+    let failures = finishes_every_scene(PlannerKind::Tensor);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn nbv_finishes_every_shipped_scene() {
+    let failures = finishes_every_scene(PlannerKind::Nbv);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -21,7 +21,7 @@ pub struct ExploreArgs {
     #[arg(long, value_name = "PATH")]
     scene: PathBuf,
     /// Exploration planner.
-    #[arg(long, value_enum, default_value_t = PlannerKind::Greedy)]
+    #[arg(long, value_enum, default_value_t = PlannerKind::Thp)]
     planner: PlannerKind,
     #[command(flatten)]
     config: ConfigArgs,

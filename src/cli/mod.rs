@@ -17,7 +17,7 @@ use tensorscout::{Config, Error, Pose2};
     version,
     about = "Headless simulator and benchmark for autonomous exploration of indoor scenes",
     long_about = "Headless simulator and benchmark for autonomous exploration of indoor scenes by a ground \
-robot with one forward-facing depth camera.\n\nExample:\n  tensorscout explore --scene scenes/apartment_small.obj --planner greedy --json"
+robot with one forward-facing depth camera.\n\nExample:\n  tensorscout explore --scene scenes/apartment_small.obj --planner thp --json"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -28,8 +28,8 @@ pub struct Cli {
 enum Command {
     /// Explore one scene with one planner and report the metrics.
     #[command(
-        after_help = "Examples:\n  tensorscout explore --scene scenes/apartment_small.obj --planner greedy\n  \
-tensorscout explore --scene scenes/office_large.obj --planner greedy --seed 3 --json --png run.png\n  \
+        after_help = "Examples:\n  tensorscout explore --scene scenes/apartment_small.obj --planner thp\n  \
+tensorscout explore --scene scenes/office_large.obj --planner thp --seed 3 --json --png run.png\n  \
 tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2.0,1.57"
     )]
     Explore(explore::ExploreArgs),
