@@ -71,7 +71,8 @@ const ACCESSIBLE_FRACTION: f64 = 0.9;
 const SNAP_M: f64 = 0.5;
 /// Newly known cells that count as progress for the stall watchdog.
 const PROGRESS_CELLS: usize = 5;
-/// Shortest pathline worth following, metres; shorter means advection is blocked here.
+/// Shortest pathline worth following beyond the goal tolerance, metres; shorter means advection is
+/// blocked here.
 const MIN_ADVANCE_M: f64 = 0.15;
 /// Failed approaches after which a node is no longer routed to.
 const MAX_NODE_FAILURES: u32 = 2;
@@ -370,6 +371,8 @@ pub struct Tensor {
     ignore: Option<(u64, Point2<f64>)>,
     /// The graph offered nothing: GREEDY drives until it does again.
     in_fallback: bool,
+    /// Advection stalled twice: GREEDY drives until one of its legs reaches its goal.
+    fallback_leg: bool,
     known_cells: usize,
     last_progress_s: f64,
     stalls_in_a_row: u32,
@@ -416,6 +419,7 @@ impl Tensor {
             heading_override: None,
             ignore: None,
             in_fallback: false,
+            fallback_leg: false,
             known_cells: 0,
             last_progress_s: 0.0,
             stalls_in_a_row: 0,
@@ -900,7 +904,7 @@ impl Tensor {
                 });
             }
         }
-        if path_length(&line) < MIN_ADVANCE_M {
+        if path_length(&line) < MIN_ADVANCE_M.max(ctx.cfg.motion.goal_tolerance_m + 0.1) {
             // Advection is blocked here: route globally (or hand over).
             if depth < 2 {
                 return match self.route(ctx, None) {
@@ -1093,6 +1097,9 @@ impl Planner for Tensor {
             self.in_fallback = false;
             return self.plan_at(ctx, 0);
         }
+        if self.fallback_leg {
+            return self.fallback(ctx);
+        }
         if self.in_fallback {
             if self.graph_has_gain(ctx) {
                 self.in_fallback = false;
@@ -1105,8 +1112,9 @@ impl Planner for Tensor {
             self.stalls_in_a_row += 1;
             self.last_progress_s = ctx.time_s;
             if self.stalls_in_a_row >= 2 {
+                // Twice nothing new: one full GREEDY leg, to its frontier, before advecting again.
                 self.stalls_in_a_row = 0;
-                return self.fallback(ctx);
+                self.fallback_leg = true;
             }
             match self.route(ctx, None) {
                 Routed::Leave { heading, node_id } => {
@@ -1200,7 +1208,12 @@ impl Planner for Tensor {
                     *self.node_failures.entry(id).or_default() += 1;
                 }
             }
-            Current::Fallback => self.greedy.action_finished(ctx, reached),
+            Current::Fallback => {
+                if reached {
+                    self.fallback_leg = false;
+                }
+                self.greedy.action_finished(ctx, reached)
+            }
             _ => {}
         }
     }
