@@ -71,7 +71,8 @@ const ACCESSIBLE_FRACTION: f64 = 0.9;
 const SNAP_M: f64 = 0.5;
 /// Newly known cells that count as progress for the stall watchdog.
 const PROGRESS_CELLS: usize = 5;
-/// Shortest pathline worth following, metres; shorter means advection is blocked here.
+/// Shortest pathline worth following beyond the goal tolerance, metres; shorter means advection is
+/// blocked here.
 const MIN_ADVANCE_M: f64 = 0.15;
 /// Failed approaches after which a node is no longer routed to.
 const MAX_NODE_FAILURES: u32 = 2;
@@ -345,6 +346,7 @@ struct Stats {
     stalls: u64,
     looks: u64,
     wall_escapes: u64,
+    unblocks: u64,
     cancelled_pairs: u64,
     moved_points: u64,
 }
@@ -369,6 +371,8 @@ pub struct Tensor {
     ignore: Option<(u64, Point2<f64>)>,
     /// The graph offered nothing: GREEDY drives until it does again.
     in_fallback: bool,
+    /// Advection stalled twice: GREEDY drives until one of its legs reaches its goal.
+    fallback_leg: bool,
     known_cells: usize,
     last_progress_s: f64,
     stalls_in_a_row: u32,
@@ -379,6 +383,16 @@ pub struct Tensor {
     max_speed: f64,
     /// The last action was an advection step (the stall watchdog runs while this holds).
     advecting: bool,
+    /// `is_outdated` ended the last action (as opposed to the executor reporting it blocked).
+    outdated: bool,
+    /// Where the last action started.
+    action_start: Point2<f64>,
+    /// The executor refused to move: look around before planning again.
+    look_next: bool,
+    /// Refused again after looking: step onto the clearest cell nearby.
+    clear_next: bool,
+    /// Where the executor refused to move, and how often in a row.
+    refusal: Option<(Point2<f64>, u32)>,
     stats: Stats,
 }
 
@@ -405,6 +419,7 @@ impl Tensor {
             heading_override: None,
             ignore: None,
             in_fallback: false,
+            fallback_leg: false,
             known_cells: 0,
             last_progress_s: 0.0,
             stalls_in_a_row: 0,
@@ -414,6 +429,11 @@ impl Tensor {
             route_target: None,
             max_speed: cfg.robot.max_speed_mps,
             advecting: false,
+            outdated: false,
+            action_start: Point2::origin(),
+            look_next: false,
+            clear_next: false,
+            refusal: None,
             stats: Stats::default(),
         }
     }
@@ -722,23 +742,7 @@ impl Tensor {
         if d < 1e-6 {
             return None;
         }
-        let n = (robot - o) / d;
-        let grid = ctx.map.grid();
-        let step = 0.5 * grid.res;
-        let mut best = robot;
-        let mut s = step;
-        while s <= want - d + 1e-9 {
-            let q = robot + n * s;
-            let ok = grid.cell_of(q).is_some_and(|c| {
-                let i = grid.index(c);
-                ctx.map.is_traversable(i) && ctx.passable(i)
-            });
-            if !ok {
-                break;
-            }
-            best = q;
-            s += step;
-        }
+        let best = walk(ctx, robot, (robot - o) / d, want - d);
         let gained = ctx
             .map
             .nearest_obstacle_point(best, want)
@@ -752,6 +756,27 @@ impl Tensor {
         self.current = Current::Escape;
         Some(Action::Follow {
             path: vec![robot, best],
+            look_on_arrival: false,
+        })
+    }
+
+    /// A step straight away from the nearest hazard (known obstacle or never-seen cell, as the
+    /// executor's guard sees them), when the guard pins the robot and a look did not help.
+    fn step_clear(&mut self, ctx: &PlanContext) -> Option<Action> {
+        let robot = ctx.pose.position();
+        let h = crate::sim::motion::nearest_obstacle(ctx.map, robot, 1.0)?;
+        let d = (robot - h).norm();
+        if d < 1e-6 {
+            return None;
+        }
+        let to = walk(ctx, robot, (robot - h) / d, 0.4);
+        if (to - robot).norm() < 0.1 {
+            return None;
+        }
+        self.stats.unblocks += 1;
+        self.current = Current::Escape;
+        Some(Action::Follow {
+            path: vec![robot, to],
             look_on_arrival: false,
         })
     }
@@ -879,7 +904,7 @@ impl Tensor {
                 });
             }
         }
-        if path_length(&line) < MIN_ADVANCE_M {
+        if path_length(&line) < MIN_ADVANCE_M.max(ctx.cfg.motion.goal_tolerance_m + 0.1) {
             // Advection is blocked here: route globally (or hand over).
             if depth < 2 {
                 return match self.route(ctx, None) {
@@ -1008,6 +1033,26 @@ impl Tensor {
     }
 }
 
+/// The farthest point up to `max_m` from `from` along `dir` reached through traversable cells.
+fn walk(ctx: &PlanContext, from: Point2<f64>, dir: Vector2<f64>, max_m: f64) -> Point2<f64> {
+    let grid = ctx.map.grid();
+    let step = 0.5 * grid.res;
+    let mut best = from;
+    let mut s = step;
+    while s <= max_m + 1e-9 {
+        let q = from + dir * s;
+        let ok = grid
+            .cell_of(q)
+            .is_some_and(|c| ctx.map.is_traversable(grid.index(c)));
+        if !ok {
+            break;
+        }
+        best = q;
+        s += step;
+    }
+    best
+}
+
 fn path_length(line: &[Point2<f64>]) -> f64 {
     line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
@@ -1032,13 +1077,28 @@ impl Planner for Tensor {
     }
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        self.action_start = ctx.pose.position();
         if self.field.is_none() {
             return Ok(Action::LookAround);
+        }
+        if std::mem::take(&mut self.look_next) {
+            self.looks_at.push(ctx.pose.position());
+            self.stats.looks += 1;
+            self.current = Current::Look;
+            return Ok(Action::LookAround);
+        }
+        if std::mem::take(&mut self.clear_next) {
+            if let Some(a) = self.step_clear(ctx) {
+                return Ok(a);
+            }
         }
         self.note_progress(ctx);
         if self.arrived.is_some() {
             self.in_fallback = false;
             return self.plan_at(ctx, 0);
+        }
+        if self.fallback_leg {
+            return self.fallback(ctx);
         }
         if self.in_fallback {
             if self.graph_has_gain(ctx) {
@@ -1052,8 +1112,9 @@ impl Planner for Tensor {
             self.stalls_in_a_row += 1;
             self.last_progress_s = ctx.time_s;
             if self.stalls_in_a_row >= 2 {
+                // Twice nothing new: one full GREEDY leg, to its frontier, before advecting again.
                 self.stalls_in_a_row = 0;
-                return self.fallback(ctx);
+                self.fallback_leg = true;
             }
             match self.route(ctx, None) {
                 Routed::Leave { heading, node_id } => {
@@ -1075,19 +1136,42 @@ impl Planner for Tensor {
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
         let blocked = |cells: &[usize]| cells.iter().any(|&i| !ctx.passable(i));
-        match &self.current {
+        self.outdated = match &self.current {
             Current::Advect {
                 started_s, cells, ..
             } => ctx.time_s - started_s >= self.substep_s() - 1e-9 || blocked(cells),
             Current::Dock { cells, .. } | Current::Route { cells, .. } => blocked(cells),
             Current::Fallback => self.greedy.is_outdated(ctx, action),
             Current::None | Current::Escape | Current::Look => false,
-        }
+        };
+        self.outdated
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
         let robot = ctx.pose.position();
         let near = |pos: Point2<f64>, r: f64| (pos - robot).norm() <= r;
+        // The executor's guard refused to move at all (unseen cells beside the robot count as
+        // hazards): look around once here, which shows them, before counting a failure.
+        let was_outdated = std::mem::take(&mut self.outdated);
+        let refused = !reached && !was_outdated && (robot - self.action_start).norm() < 0.05;
+        if refused {
+            if self.refusal.is_none_or(|(p, _)| (p - robot).norm() > 0.3) {
+                self.refusal = Some((robot, 0));
+            }
+            let n = self.refusal.as_mut().map_or(0, |r| {
+                r.1 += 1;
+                r.1
+            });
+            // First a look, then a step away from the hazard; after that, failures count (the
+            // fallback's give-up rule) every other time, so one pinned spot cannot give up every
+            // frontier in a row.
+            if n == 1 || n % 2 == 0 {
+                self.look_next = n == 1;
+                self.clear_next = n != 1;
+                self.current = Current::None;
+                return;
+            }
+        }
         match std::mem::replace(&mut self.current, Current::None) {
             Current::Advect {
                 wedge: Some((id, pos)),
@@ -1124,7 +1208,12 @@ impl Planner for Tensor {
                     *self.node_failures.entry(id).or_default() += 1;
                 }
             }
-            Current::Fallback => self.greedy.action_finished(ctx, reached),
+            Current::Fallback => {
+                if reached {
+                    self.fallback_leg = false;
+                }
+                self.greedy.action_finished(ctx, reached)
+            }
             _ => {}
         }
     }
@@ -1174,6 +1263,7 @@ impl Planner for Tensor {
             ("stalls", s.stalls),
             ("looks", s.looks),
             ("wall_escapes", s.wall_escapes),
+            ("unblocks", s.unblocks),
             ("cancelled_pairs", s.cancelled_pairs),
             ("moved_points", s.moved_points),
         ]
