@@ -25,7 +25,10 @@
 //! - Eq. 7 uses the path cost of the shared search (`costs_to_targets`, metres with the proximity
 //!   surcharge) instead of the Euclidean distance, as all planners here do.
 //! - The motion executor cannot end at a given heading, so the robot turns once in place on
-//!   arrival (it sees at least what the best yaw predicted).
+//!   arrival (it sees at least what the best yaw predicted). While driving, the target's gain is
+//!   re-checked once a second and the plan is redone as soon as it falls below the cutoff (the
+//!   camera often sees a viewpoint's unknown on the way there); a viewpoint whose gain stays above
+//!   the cutoff after a visit is given up, as is one the robot failed to reach twice.
 //! - Before answering `Complete`, every frontier segment's anchor is tried as a viewpoint, so that
 //!   a random sampler's miss cannot end the run early.
 
