@@ -219,7 +219,7 @@ fn bad_scene_and_unavailable_planner_are_failed_rows() {
     let nbv = r.iter().find(|v| v["planner"] == "nbv").unwrap();
     assert_eq!(
         nbv["error"],
-        "planner `nbv` is not available in this version; available: greedy"
+        "planner `nbv` is not available in this version; available: greedy, tensor"
     );
     let md = read(&out, "summary.md");
     assert!(

@@ -469,7 +469,7 @@ mod tests {
         );
         assert_eq!(
             row.error.as_deref(),
-            Some("planner `nbv` is not available in this version; available: greedy")
+            Some("planner `nbv` is not available in this version; available: greedy, tensor")
         );
     }
 }

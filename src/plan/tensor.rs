@@ -338,6 +338,15 @@ struct Node {
     pos: Point2<f64>,
 }
 
+/// The routing graph of one decision: reachable nodes, their snapped cells, edges with gains, and
+/// the robot's distance field they were snapped with.
+struct RoutingGraph {
+    nodes: Vec<Node>,
+    cells: Vec<usize>,
+    edges: Vec<RouteEdge>,
+    df: super::search::DistanceField,
+}
+
 /// Deterministic counters (see [`Planner::stats`]).
 #[derive(Clone, Debug, Default)]
 struct Stats {
@@ -534,15 +543,7 @@ impl Tensor {
     }
 
     /// The routing graph with gains, the snapped node cells, and the distance field, for routing.
-    fn routing_graph(
-        &self,
-        ctx: &mut PlanContext,
-    ) -> Option<(
-        Vec<Node>,
-        Vec<usize>,
-        Vec<RouteEdge>,
-        super::search::DistanceField,
-    )> {
+    fn routing_graph(&self, ctx: &mut PlanContext) -> Option<RoutingGraph> {
         let field = self.field.as_ref()?;
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
@@ -649,12 +650,23 @@ impl Tensor {
                 polyline,
             });
         }
-        Some((nodes, cells, edges, df))
+        Some(RoutingGraph {
+            nodes,
+            cells,
+            edges,
+            df,
+        })
     }
 
     /// Global routing (§4.2) from the node `root_id`, or from the nearest reachable node.
     fn route(&mut self, ctx: &mut PlanContext, root_id: Option<u64>) -> Routed {
-        let Some((nodes, cells, edges, df)) = self.routing_graph(ctx) else {
+        let Some(RoutingGraph {
+            nodes,
+            cells,
+            edges,
+            df,
+        }) = self.routing_graph(ctx)
+        else {
             return Routed::Nothing;
         };
         let grid = *ctx.map.grid();
@@ -753,7 +765,7 @@ impl Tensor {
         // Every routing node is reachable (snapped to a reachable cell), so every edge kept is
         // accessible.
         self.routing_graph(ctx)
-            .is_some_and(|(_, _, edges, _)| edges.iter().any(|e| e.gain >= self.cfg.min_info_gain))
+            .is_some_and(|g| g.edges.iter().any(|e| e.gain >= self.cfg.min_info_gain))
     }
 
     /// Moves away along the normal of a wall the body is closer than `wall_clearance_m` to, when
@@ -1016,7 +1028,7 @@ impl Tensor {
 
     /// Whether an edge or open separatrix at node `id` has gain.
     fn node_has_gain(&mut self, ctx: &mut PlanContext, id: u64) -> bool {
-        let Some((nodes, _, edges, _)) = self.routing_graph(ctx) else {
+        let Some(RoutingGraph { nodes, edges, .. }) = self.routing_graph(ctx) else {
             return false;
         };
         let Some(k) = nodes.iter().position(|n| n.id == id) else {
@@ -1184,7 +1196,7 @@ impl Planner for Tensor {
             // First a look, then a step away from the hazard; after that, failures count (the
             // fallback's give-up rule) every other time, so one pinned spot cannot give up every
             // frontier in a row.
-            if n == 1 || n % 2 == 0 {
+            if n == 1 || n.is_multiple_of(2) {
                 self.look_next = n == 1;
                 self.clear_next = n != 1;
                 self.current = Current::None;
