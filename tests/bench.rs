@@ -187,7 +187,7 @@ fn resume_after_an_interruption_gives_the_same_rows() {
 }
 
 #[test]
-fn bad_scene_and_unavailable_planner_are_failed_rows() {
+fn a_bad_scene_is_a_failed_row_for_every_planner() {
     let t = tmp();
     let bad: PathBuf = t.path().join("broken.obj");
     std::fs::write(&bad, "v 0 0 0\nf 1 2 3\n").unwrap();
@@ -211,16 +211,9 @@ fn bad_scene_and_unavailable_planner_are_failed_rows() {
     let r = rows(&out);
     assert_eq!(r.len(), 2);
     assert!(r.iter().all(|v| v["status"] == "failed"));
-    let greedy = r.iter().find(|v| v["planner"] == "greedy").unwrap();
-    assert!(
-        greedy["error"].as_str().unwrap().starts_with(&bad_s),
-        "{greedy}"
-    );
-    let tensor = r.iter().find(|v| v["planner"] == "tensor").unwrap();
-    assert_eq!(
-        tensor["error"],
-        "planner `tensor` is not available in this version; available: greedy, nbv"
-    );
+    for v in &r {
+        assert!(v["error"].as_str().unwrap().starts_with(&bad_s), "{v}");
+    }
     let md = read(&out, "summary.md");
     assert!(
         md.contains("- **tensor**: no successful run, 1/1 runs failed"),

@@ -459,17 +459,5 @@ mod tests {
         let row = run_one(&run, &Config::default(), None);
         assert_eq!(row.status, RunStatus::Failed);
         assert!(row.error.unwrap().starts_with("/nonexistent/x.obj"));
-        let row = run_one(
-            &RunSpec {
-                planner: PlannerKind::Tensor,
-                ..run
-            },
-            &Config::default(),
-            None,
-        );
-        assert_eq!(
-            row.error.as_deref(),
-            Some("planner `tensor` is not available in this version; available: greedy, nbv")
-        );
     }
 }

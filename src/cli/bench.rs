@@ -44,7 +44,7 @@ struct RunArgs {
     /// Scene files, or folders whose scene files (.obj .ply .yaml .yml .json) are all used.
     #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
     scenes: Vec<PathBuf>,
-    /// Planners to compare, comma separated. A planner that is not available gives failed rows.
+    /// Planners to compare, comma separated. A run that fails (bad scene, error) gives a failed row.
     #[arg(
         long,
         value_enum,

@@ -124,12 +124,18 @@ impl GainMap {
         (n as f64 / self.norm).min(1.0)
     }
 
-    /// `Ī = (1/ℓ) ∫ I dp` along a polyline (midpoint rule per segment); `I` of the point for one point.
+    /// `Ī = (1/ℓ) ∫ I dp` along a polyline (midpoint rule on pieces of at most one cell); `I` of
+    /// the point for a single point.
     pub fn mean_along(&self, line: &[Point2<f64>]) -> f64 {
         let (mut sum, mut len) = (0.0, 0.0);
         for w in line.windows(2) {
-            let l = (w[1] - w[0]).norm();
-            sum += l * self.at(Point2::from((w[0].coords + w[1].coords) * 0.5));
+            let d = w[1] - w[0];
+            let l = d.norm();
+            let n = (l / self.grid.res).ceil().max(1.0) as usize;
+            for k in 0..n {
+                let p = w[0] + d * ((k as f64 + 0.5) / n as f64);
+                sum += l / n as f64 * self.at(p);
+            }
             len += l;
         }
         if len > 0.0 {
@@ -332,6 +338,15 @@ struct Node {
     pos: Point2<f64>,
 }
 
+/// The routing graph of one decision: reachable nodes, their snapped cells, edges with gains, and
+/// the robot's distance field they were snapped with.
+struct RoutingGraph {
+    nodes: Vec<Node>,
+    cells: Vec<usize>,
+    edges: Vec<RouteEdge>,
+    df: super::search::DistanceField,
+}
+
 /// Deterministic counters (see [`Planner::stats`]).
 #[derive(Clone, Debug, Default)]
 struct Stats {
@@ -465,6 +480,27 @@ impl Tensor {
         Some([a.a * (1.0 - tau) + b.a * tau, a.b * (1.0 - tau) + b.b * tau])
     }
 
+    /// The pathline from `start` at time `t0` through the time-varying field, leaving along the
+    /// field direction nearest `heading` (local orientation, §4.2); `v` maps arc length to time.
+    fn trace_pathline(
+        &self,
+        start: Point2<f64>,
+        heading: f64,
+        t0: f64,
+        len: f64,
+        v: f64,
+        stop: &StopConditions,
+    ) -> (Vec<Point2<f64>>, StopReason) {
+        trace(
+            |p, s| self.sample(p, t0 + s / v),
+            start,
+            heading,
+            len,
+            self.field_cfg.rk4_step_m,
+            stop,
+        )
+    }
+
     /// Length of one traced pathline: `advect_substeps` sub-steps at full speed.
     fn pathline_length(&self, max_speed: f64) -> f64 {
         self.cfg.advect_substeps as f64 * self.substep_s() * max_speed
@@ -507,15 +543,7 @@ impl Tensor {
     }
 
     /// The routing graph with gains, the snapped node cells, and the distance field, for routing.
-    fn routing_graph(
-        &self,
-        ctx: &mut PlanContext,
-    ) -> Option<(
-        Vec<Node>,
-        Vec<usize>,
-        Vec<RouteEdge>,
-        super::search::DistanceField,
-    )> {
+    fn routing_graph(&self, ctx: &mut PlanContext) -> Option<RoutingGraph> {
         let field = self.field.as_ref()?;
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
@@ -622,12 +650,23 @@ impl Tensor {
                 polyline,
             });
         }
-        Some((nodes, cells, edges, df))
+        Some(RoutingGraph {
+            nodes,
+            cells,
+            edges,
+            df,
+        })
     }
 
     /// Global routing (§4.2) from the node `root_id`, or from the nearest reachable node.
     fn route(&mut self, ctx: &mut PlanContext, root_id: Option<u64>) -> Routed {
-        let Some((nodes, cells, edges, df)) = self.routing_graph(ctx) else {
+        let Some(RoutingGraph {
+            nodes,
+            cells,
+            edges,
+            df,
+        }) = self.routing_graph(ctx)
+        else {
             return Routed::Nothing;
         };
         let grid = *ctx.map.grid();
@@ -726,7 +765,7 @@ impl Tensor {
         // Every routing node is reachable (snapped to a reachable cell), so every edge kept is
         // accessible.
         self.routing_graph(ctx)
-            .is_some_and(|(_, _, edges, _)| edges.iter().any(|e| e.gain >= self.cfg.min_info_gain))
+            .is_some_and(|g| g.edges.iter().any(|e| e.gain >= self.cfg.min_info_gain))
     }
 
     /// Moves away along the normal of a wall the body is closer than `wall_clearance_m` to, when
@@ -813,15 +852,7 @@ impl Tensor {
             degenerate_radius_m: self.field_cfg.arrive_radius_m,
             origin: None,
         };
-        let t0 = ctx.time_s;
-        let (mut line, reason) = trace(
-            |p, s| self.sample(p, t0 + s / v),
-            robot,
-            heading,
-            len,
-            self.field_cfg.rk4_step_m,
-            &stop,
-        );
+        let (mut line, reason) = self.trace_pathline(robot, heading, ctx.time_s, len, v, &stop);
         self.stats.retraces += 1;
         // At a node already: handle the arrival there.
         if let (StopReason::NearDegenerate(k), true) = (reason, line.len() <= 1) {
@@ -997,7 +1028,7 @@ impl Tensor {
 
     /// Whether an edge or open separatrix at node `id` has gain.
     fn node_has_gain(&mut self, ctx: &mut PlanContext, id: u64) -> bool {
-        let Some((nodes, _, edges, _)) = self.routing_graph(ctx) else {
+        let Some(RoutingGraph { nodes, edges, .. }) = self.routing_graph(ctx) else {
             return false;
         };
         let Some(k) = nodes.iter().position(|n| n.id == id) else {
@@ -1165,7 +1196,7 @@ impl Planner for Tensor {
             // First a look, then a step away from the hazard; after that, failures count (the
             // fallback's give-up rule) every other time, so one pinned spot cannot give up every
             // frontier in a row.
-            if n == 1 || n % 2 == 0 {
+            if n == 1 || n.is_multiple_of(2) {
                 self.look_next = n == 1;
                 self.clear_next = n != 1;
                 self.current = Current::None;
@@ -1270,5 +1301,221 @@ impl Planner for Tensor {
         .into_iter()
         .map(|(k, v)| (k.to_string(), v as f64))
         .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::synth::{rasterise, wall};
+    use crate::field::MaskInputs;
+
+    fn edge(a: usize, b: Option<usize>, gain: f64) -> RouteEdge {
+        RouteEdge {
+            a,
+            b,
+            gain,
+            polyline: vec![Point2::new(a as f64, 0.0), Point2::new(a as f64 + 1.0, 0.0)],
+        }
+    }
+
+    /// Total cost of the cheapest spanning tree, by trying every subset of n − 1 edges.
+    fn brute_force_mst(n: usize, edges: &[RouteEdge]) -> f64 {
+        let m = edges.len();
+        let mut best = f64::INFINITY;
+        for mask in 0u32..(1 << m) {
+            if mask.count_ones() as usize != n - 1 {
+                continue;
+            }
+            let mut parent: Vec<usize> = (0..n).collect();
+            fn find(p: &mut [usize], x: usize) -> usize {
+                if p[x] == x {
+                    x
+                } else {
+                    let r = find(p, p[x]);
+                    p[x] = r;
+                    r
+                }
+            }
+            let mut ok = true;
+            let mut cost = 0.0;
+            for (k, e) in edges.iter().enumerate() {
+                if mask & (1 << k) == 0 {
+                    continue;
+                }
+                let (ra, rb) = (find(&mut parent, e.a), find(&mut parent, e.b.unwrap()));
+                if ra == rb {
+                    ok = false;
+                    break;
+                }
+                parent[ra] = rb;
+                cost += e.cost();
+            }
+            if ok {
+                best = best.min(cost);
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn mst_agrees_with_brute_force_and_sums_tree_paths() {
+        let gains = [
+            (0, 1, 0.5),
+            (1, 2, 0.1),
+            (0, 2, 0.2),
+            (2, 3, 0.05),
+            (1, 3, 0.04),
+            (3, 4, 0.25),
+            (2, 4, 0.0),
+            (0, 4, 0.02),
+        ];
+        let edges: Vec<RouteEdge> = gains.iter().map(|&(a, b, g)| edge(a, Some(b), g)).collect();
+        let tree = min_spanning_tree(5, &edges, 0);
+        let total: f64 = tree
+            .parent_edge
+            .iter()
+            .flatten()
+            .map(|&k| edges[k].cost())
+            .sum();
+        assert_eq!(tree.parent_edge.iter().flatten().count(), 4);
+        assert!((total - brute_force_mst(5, &edges)).abs() < 1e-9);
+        // Known answer: 0-1 (2), 0-2 (5), 2-3 (20), 3-4 (4).
+        assert!((total - 31.0).abs() < 1e-9, "{total}");
+        assert_eq!(tree.dist[0], 0.0);
+        assert!((tree.dist[4] - (5.0 + 20.0 + 4.0)).abs() < 1e-9);
+        // Unreached nodes stay at infinity.
+        let tree = min_spanning_tree(6, &edges, 0);
+        assert!(tree.dist[5].is_infinite() && tree.parent_edge[5].is_none());
+    }
+
+    #[test]
+    fn target_is_the_cheapest_edge_with_gain_over_the_tree() {
+        // A path 0 - 1 - 2 without gain; a leaf with gain at 2 and a weaker one at 0.
+        let edges = vec![
+            edge(0, Some(1), 0.0),
+            edge(1, Some(2), 0.0),
+            edge(2, None, 0.5),
+            edge(0, None, 0.02),
+        ];
+        let tree = min_spanning_tree(3, &edges, 0);
+        // Leaf at 0 costs 50; the one at 2 costs 1000 + 1000 + 2.
+        let t = select_target(&edges, &tree, 0.01).unwrap();
+        assert_eq!((t.edge, t.node), (3, 0));
+        assert!((t.cost - 50.0).abs() < 1e-9);
+        // With the root at 2 the strong leaf is right there.
+        let tree = min_spanning_tree(3, &edges, 2);
+        let t = select_target(&edges, &tree, 0.01).unwrap();
+        assert_eq!((t.edge, t.node), (2, 2));
+    }
+
+    #[test]
+    fn no_target_when_every_gain_is_below_the_threshold() {
+        let edges = vec![
+            edge(0, Some(1), 0.009),
+            edge(1, None, 0.0),
+            edge(0, None, 0.005),
+        ];
+        let tree = min_spanning_tree(2, &edges, 0);
+        assert_eq!(select_target(&edges, &tree, 0.01), None);
+        // An edge with gain outside the root's component is not accessible from it either.
+        let edges = vec![edge(0, Some(1), 0.0), edge(2, None, 0.9)];
+        let tree = min_spanning_tree(3, &edges, 0);
+        assert_eq!(select_target(&edges, &tree, 0.01), None);
+    }
+
+    #[test]
+    fn gain_counts_frontier_cells_in_the_view_square() {
+        let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(10.0, 4.0), 2.0, 0.1);
+        let f = grid.index(grid.cell_of(Point2::new(8.05, 2.05)).unwrap());
+        let gains = GainMap::new(&grid, 1.0, |i| i == f);
+        // One cell in a 21-cell-wide square: 1/21.
+        assert!((gains.at(Point2::new(8.0, 2.0)) - 1.0 / 21.0).abs() < 1e-12);
+        assert!((gains.at(Point2::new(7.05, 2.05)) - 1.0 / 21.0).abs() < 1e-12);
+        assert_eq!(gains.at(Point2::new(6.5, 2.0)), 0.0);
+        // A line from x = 5 to 9: the cell is in view from x ≥ 7, half of the line.
+        let line = [Point2::new(5.0, 2.05), Point2::new(9.0, 2.05)];
+        let mean = gains.mean_along(&line);
+        assert!((mean - 0.5 / 21.0).abs() < 1e-9, "{mean}");
+    }
+
+    /// Branch choice on a synthetic map: a trisector at the origin with three open separatrices,
+    /// and frontier cells only at the end of the one going north-east.
+    #[test]
+    fn branch_with_frontier_cells_is_chosen() {
+        let grid = GridSpec::covering(Point2::new(-6.0, -6.0), Point2::new(6.0, 6.0), 2.0, 0.1);
+        let frontier: Vec<bool> = (0..grid.cells())
+            .map(|i| {
+                let p = grid.center(grid.cell(i));
+                (p.x - 3.5).abs() < 0.3 && (p.y - 3.5).abs() < 0.3
+            })
+            .collect();
+        let gains = GainMap::new(&grid, 2.0, |i| frontier[i]);
+        let branch = |angle: f64| {
+            let polyline: Vec<Point2<f64>> = (0..=40)
+                .map(|k| Point2::new(0.1 * k as f64 * angle.cos(), 0.1 * k as f64 * angle.sin()))
+                .collect();
+            RouteEdge {
+                a: 0,
+                b: None,
+                gain: gains.mean_along(&polyline),
+                polyline,
+            }
+        };
+        let dirs = [std::f64::consts::FRAC_PI_4, 2.6, -1.9];
+        let edges: Vec<RouteEdge> = dirs.iter().map(|&d| branch(d)).collect();
+        assert!(edges[0].gain >= 0.01);
+        assert!(edges[1].gain < 0.01 && edges[2].gain < 0.01);
+        let tree = min_spanning_tree(1, &edges, 0);
+        let t = select_target(&edges, &tree, 0.01).unwrap();
+        assert_eq!((t.edge, t.node), (0, 0));
+        let h = leaving_heading(&edges[t.edge], 0, 0.6).unwrap();
+        assert!((h - std::f64::consts::FRAC_PI_4).abs() < 1e-9);
+        // Without the frontier there is nothing to choose: termination.
+        let none = GainMap::new(&grid, 2.0, |_| false);
+        assert_eq!(none.mean_along(&edges[0].polyline), 0.0);
+    }
+
+    /// The line field has no sign: the pathline leaves in the direction nearest the heading.
+    #[test]
+    fn pathline_is_oriented_by_the_heading() {
+        let layout = rasterise(
+            &[wall(0.0, 0.0, 8.0, 0.0, 0.2)],
+            Point2::new(-1.0, -1.0),
+            Point2::new(9.0, 3.0),
+            0.1,
+            0.0,
+            Point2::origin(),
+        );
+        let cfg = Config::default();
+        let mut planner = Tensor::new(&cfg);
+        let mut field = TensorField::new(layout.grid, &planner.field_cfg);
+        let inputs = MaskInputs::new(&layout.grid, &layout.surface, &layout.surface, None).unwrap();
+        field.update(&inputs).unwrap();
+        planner.field = Some(field);
+        let stop = StopConditions::border_only(&layout.grid);
+        let start = Point2::new(4.0, 0.6);
+        for (heading, sign) in [(0.3, 1.0), (2.9, -1.0), (-0.5, 1.0), (-2.0, -1.0)] {
+            let (line, reason) = planner.trace_pathline(start, heading, 0.0, 1.2, 1.0, &stop);
+            assert_eq!(reason, StopReason::MaxLength);
+            let d = line.last().unwrap() - start;
+            // Along the wall (the major eigenvector is its tangent), in the heading's sense.
+            assert!(d.x * sign > 1.1, "heading {heading}: {d:?}");
+            assert!(d.y.abs() < 0.1, "heading {heading}: {d:?}");
+        }
+    }
+
+    /// Between key frames the field moves from the middle frame toward the new key frame.
+    #[test]
+    fn field_time_runs_from_the_middle_frame_to_the_key_frame() {
+        let cfg = Config::default();
+        let mut planner = Tensor::new(&cfg);
+        planner.key_time_s = 8.0;
+        assert!((planner.tau(8.0) - 0.5).abs() < 1e-12);
+        assert!((planner.tau(10.0) - 0.75).abs() < 1e-12);
+        assert!((planner.tau(12.0) - 1.0).abs() < 1e-12);
+        assert!((planner.tau(20.0) - 1.0).abs() < 1e-12);
+        assert!((planner.substep_s() - 0.4).abs() < 1e-12);
+        assert!((planner.pathline_length(1.0) - 1.2).abs() < 1e-12);
     }
 }
