@@ -68,7 +68,7 @@ fn log_replays_verifies_and_is_never_overwritten() {
     assert!(summary.status.success(), "{}", stderr(&summary));
     let s = json(&summary);
     let id = &s["identity"];
-    assert_eq!(id["planner"], "greedy");
+    assert_eq!(id["planner"], "thp", "explore defaults to THP");
     assert_eq!(id["seed"], 1);
     assert_eq!(id["scene_hash"], result["scene_hash"]);
     assert_eq!(id["config_hash"], result["config_hash"]);
