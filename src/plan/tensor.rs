@@ -390,6 +390,8 @@ pub struct Tensor {
     fallback_leg: bool,
     known_cells: usize,
     last_progress_s: f64,
+    /// Last time anything new was seen, in any mode.
+    last_any_progress_s: f64,
     stalls_in_a_row: u32,
     looks_at: Vec<Point2<f64>>,
     last_escape_s: f64,
@@ -437,6 +439,7 @@ impl Tensor {
             fallback_leg: false,
             known_cells: 0,
             last_progress_s: 0.0,
+            last_any_progress_s: 0.0,
             stalls_in_a_row: 0,
             looks_at: Vec::new(),
             last_escape_s: f64::NEG_INFINITY,
@@ -538,6 +541,7 @@ impl Tensor {
         if known >= self.known_cells + PROGRESS_CELLS {
             self.known_cells = known;
             self.last_progress_s = ctx.time_s;
+            self.last_any_progress_s = ctx.time_s;
             self.stalls_in_a_row = 0;
         }
     }
@@ -1127,6 +1131,13 @@ impl Planner for Tensor {
         if self.arrived.is_some() {
             self.in_fallback = false;
             return self.plan_at(ctx, 0);
+        }
+        if ctx.time_s - self.last_any_progress_s >= 3.0 * self.cfg.stall_timeout_s {
+            // Nothing new for long whatever the mode (routes that lead nowhere reset the advection
+            // watchdog): one GREEDY leg.
+            self.stats.stalls += 1;
+            self.last_any_progress_s = ctx.time_s;
+            self.fallback_leg = true;
         }
         if self.fallback_leg {
             return self.fallback(ctx);
