@@ -27,10 +27,11 @@
 //!   the square's side, so a frontier crossing the whole view square gives 1 and one frontier cell
 //!   gives `res / (2 gain_radius_m)` (0.025 by default). The paper's `I` is the entropy a best view
 //!   at `p` removes; frontier cells stand in for it (no TSDF, no view sampling here).
-//! - **Safety (§6).** A body closer than `wall_clearance_m` to a known wall first moves away along
-//!   the wall's normal when the known space allows it; a pathline into unknown space makes the robot
-//!   look around before entering (the paper adds a look-at view to its arm-held camera; the camera
-//!   here is fixed, so the robot turns).
+//! - **Safety (§6).** A body (the disc's edge) closer than `wall_clearance_m` to a known wall first
+//!   moves away along the wall's normal when the known free space allows a gain of 0.1 m or more (at
+//!   most once per key-frame period); a pathline into unknown space makes the robot look around
+//!   before entering, at most once within `look_spacing_m` (the paper adds a look-at view to its
+//!   arm-held camera; the camera here is fixed, so the robot turns).
 //! - **Termination.** `Complete` when no accessible edge has `Ī ≥ min_info_gain` and no reachable,
 //!   observable frontier is left. An edge is accessible when its nearer node is reachable and at
 //!   least 90 % of its samples are outside every known obstacle's inflation (a contact test of the
@@ -39,11 +40,19 @@
 //! Deviations, each to keep the comparison fair or the run finite:
 //! - **Fallback.** When the graph offers nothing (no node reachable or no edge with gain) while
 //!   frontiers remain reachable, the robot drives to the nearest frontier with A* (the GREEDY planner,
-//!   embedded, so that its give-up rules for unobservable frontiers are shared). The same happens
-//!   when advection and routing twice in a row reveal nothing for `stall_timeout_s`. TENSOR alone
-//!   stalls when the field circulates around a room with no trisector on the way or when the points
-//!   lie where the map is not yet known; the paper's scenes were small and closed enough for that to
-//!   be rare. The counters `fallback_plans` and `stalls` say how often it happened.
+//!   embedded, so that its give-up rules for unobservable frontiers are shared); it advects again
+//!   as soon as an edge has gain. One GREEDY leg (until it reaches its goal) is also driven when
+//!   advection twice in a row reveals nothing for `stall_timeout_s`, or when nothing new has been
+//!   seen for three times that in any mode (routes that lead nowhere). Observed: the pathlines
+//!   follow wall tangents, so around a free-standing table or a room-centre wedge the field is a
+//!   closed loop and the robot circles it; trisectors sit at doorways, which pathlines rarely pass
+//!   within the docking radius. Without these hand-overs, early versions of this planner ended
+//!   `stuck` on `apartment_small` and `apartment_loop`. The counters
+//!   `fallback_plans` and `stalls` say how often it happened.
+//! - **Pinned by the guard.** When the shared executor refuses to move at all (its guard counts
+//!   never-seen cells beside the robot as hazards), the robot first looks around, then steps straight
+//!   away from the nearest hazard, before the failure is counted; otherwise one pinned spot would
+//!   make the fallback give up every frontier in a row.
 //! - **Out of scope.** The camera stays fixed and forward-facing: the arm trajectory optimisation of
 //!   §5 (Eq. 7–9, view selection, Gurobi) is not implemented. Moving a wedge inward after a
 //!   round trip (Fig. 9b) is not implemented either; the wedge's branches are routed away from
@@ -390,6 +399,8 @@ pub struct Tensor {
     fallback_leg: bool,
     known_cells: usize,
     last_progress_s: f64,
+    /// Last time anything new was seen, in any mode.
+    last_any_progress_s: f64,
     stalls_in_a_row: u32,
     looks_at: Vec<Point2<f64>>,
     last_escape_s: f64,
@@ -437,6 +448,7 @@ impl Tensor {
             fallback_leg: false,
             known_cells: 0,
             last_progress_s: 0.0,
+            last_any_progress_s: 0.0,
             stalls_in_a_row: 0,
             looks_at: Vec::new(),
             last_escape_s: f64::NEG_INFINITY,
@@ -538,6 +550,7 @@ impl Tensor {
         if known >= self.known_cells + PROGRESS_CELLS {
             self.known_cells = known;
             self.last_progress_s = ctx.time_s;
+            self.last_any_progress_s = ctx.time_s;
             self.stalls_in_a_row = 0;
         }
     }
@@ -1127,6 +1140,13 @@ impl Planner for Tensor {
         if self.arrived.is_some() {
             self.in_fallback = false;
             return self.plan_at(ctx, 0);
+        }
+        if ctx.time_s - self.last_any_progress_s >= 3.0 * self.cfg.stall_timeout_s {
+            // Nothing new for long whatever the mode (routes that lead nowhere reset the advection
+            // watchdog): one GREEDY leg.
+            self.stats.stalls += 1;
+            self.last_any_progress_s = ctx.time_s;
+            self.fallback_leg = true;
         }
         if self.fallback_leg {
             return self.fallback(ctx);
