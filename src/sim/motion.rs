@@ -29,6 +29,9 @@ enum Phase {
         /// Index of the path point the robot has progressed to.
         progress: usize,
         look_on_arrival: bool,
+        /// Tracking the path itself rather than pure pursuit, after the guard tripped near a corner;
+        /// until the clearance is back.
+        tight: bool,
     },
     Looking {
         turned_rad: f64,
@@ -74,6 +77,11 @@ const ESCAPE_SPEED_FRACTION: f64 = 0.2;
 const GUARD_MARGIN_M: f64 = 0.02;
 /// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
 const MIN_SPEED_FRACTION: f64 = 0.3;
+/// Look-ahead when tracking the path tightly past a corner: just over one diagonal cell step, metres.
+const TIGHT_LOOKAHEAD_M: f64 = 0.15;
+/// Tight tracking ends once the clearance exceeds the inflation radius by this, metres (hysteresis,
+/// so that pure pursuit does not cut the same corner again at once).
+const TIGHT_EXIT_MARGIN_M: f64 = 0.05;
 
 impl MotionExecutor {
     pub fn new(cfg: &Config) -> Self {
@@ -102,6 +110,7 @@ impl MotionExecutor {
                 path: path.clone(),
                 progress: 0,
                 look_on_arrival: *look_on_arrival,
+                tight: false,
             },
             Action::Follow { .. } | Action::Complete => Phase::Idle,
             Action::LookAround => Phase::Looking { turned_rad: 0.0 },
@@ -127,71 +136,7 @@ impl MotionExecutor {
                     (Command { v: 0.0, w }, MotionStatus::Busy)
                 }
             }
-            Phase::Following {
-                path,
-                progress,
-                look_on_arrival,
-            } => {
-                let here = pose.position();
-                let goal = *path.last().expect("non-empty path");
-                if (goal - here).norm() <= self.goal_tolerance {
-                    self.phase = if *look_on_arrival {
-                        Phase::Looking { turned_rad: 0.0 }
-                    } else {
-                        Phase::Idle
-                    };
-                    let status = if self.is_busy() {
-                        MotionStatus::Busy
-                    } else {
-                        MotionStatus::Done
-                    };
-                    return (Command::default(), status);
-                }
-                // Advance progress to the nearest point within a short window ahead.
-                let window = (*progress + 20).min(path.len());
-                let nearest = (*progress..window)
-                    .min_by(|&a, &b| {
-                        (path[a] - here)
-                            .norm_squared()
-                            .total_cmp(&(path[b] - here).norm_squared())
-                    })
-                    .unwrap_or(*progress);
-                *progress = nearest;
-                let target = path[*progress..]
-                    .iter()
-                    .find(|p| (*p - here).norm() >= self.lookahead)
-                    .copied()
-                    .unwrap_or(goal);
-                let d = target - here;
-                let err = wrap_angle(d.y.atan2(d.x) - pose.yaw);
-                let w = (HEADING_GAIN * err).clamp(-self.max_turn, self.max_turn);
-                if err.abs() > self.turn_in_place {
-                    return (Command { v: 0.0, w }, MotionStatus::Busy);
-                }
-                let clearance = obstacle_clearance(map, here, self.slow_clearance);
-                let slow = if self.slow_clearance > self.radius {
-                    ((clearance - self.radius) / (self.slow_clearance - self.radius))
-                        .clamp(MIN_SPEED_FRACTION, 1.0)
-                } else {
-                    1.0
-                };
-                let to_goal = (goal - here).norm();
-                let v = self.max_speed * err.cos().max(0.0) * slow * (to_goal / 0.5).min(1.0);
-                let next = super::robot::integrate(pose, v, w, self.dt);
-                let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
-                if next_clearance < self.guard_clearance && next_clearance < clearance {
-                    // Moving on would bring the disc closer to a known obstacle than is safe. Turn in
-                    // place toward the path first; if already aligned, back off and re-plan.
-                    if err.abs() > ALIGNED_RAD {
-                        return (Command { v: 0.0, w }, MotionStatus::Busy);
-                    }
-                    self.phase = Phase::Escaping {
-                        steps_left: ESCAPE_STEPS,
-                    };
-                    return self.step(pose, map);
-                }
-                (Command { v, w }, MotionStatus::Busy)
-            }
+            Phase::Following { .. } => self.follow(pose, map),
             Phase::Escaping { steps_left } => {
                 let here = pose.position();
                 let clearance = obstacle_clearance(map, here, self.slow_clearance);
@@ -216,6 +161,144 @@ impl MotionExecutor {
             }
         }
     }
+}
+
+impl MotionExecutor {
+    /// One step of path following: pure pursuit with speed reduced near obstacles, and a guard that
+    /// refuses to bring the disc closer to a hazard than `guard_clearance`. When the guard trips
+    /// (pure pursuit cuts the corner at a door jamb), the robot tracks the path itself until its
+    /// clearance is back; if even that is unsafe, it backs off and reports `Blocked`.
+    fn follow(&mut self, pose: Pose2, map: &Map) -> (Command, MotionStatus) {
+        let limits = self.limits();
+        let Phase::Following {
+            path,
+            progress,
+            look_on_arrival,
+            tight,
+        } = &mut self.phase
+        else {
+            unreachable!("follow is called in the following phase");
+        };
+        let here = pose.position();
+        let goal = *path.last().expect("non-empty path");
+        if (goal - here).norm() <= self.goal_tolerance {
+            self.phase = if *look_on_arrival {
+                Phase::Looking { turned_rad: 0.0 }
+            } else {
+                Phase::Idle
+            };
+            let status = if self.is_busy() {
+                MotionStatus::Busy
+            } else {
+                MotionStatus::Done
+            };
+            return (Command::default(), status);
+        }
+        // Advance progress to the nearest point within a short window ahead.
+        let window = (*progress + 20).min(path.len());
+        let nearest = (*progress..window)
+            .min_by(|&a, &b| {
+                (path[a] - here)
+                    .norm_squared()
+                    .total_cmp(&(path[b] - here).norm_squared())
+            })
+            .unwrap_or(*progress);
+        *progress = nearest;
+        let clearance = obstacle_clearance(map, here, self.slow_clearance);
+        if *tight && clearance >= self.free_clearance + TIGHT_EXIT_MARGIN_M {
+            *tight = false;
+        }
+        if *tight {
+            return match track_tightly(&limits, pose, map, &path[*progress..], clearance) {
+                Some(cmd) => (cmd, MotionStatus::Busy),
+                None => self.back_off(pose, map),
+            };
+        }
+        let target = path[*progress..]
+            .iter()
+            .find(|p| (*p - here).norm() >= self.lookahead)
+            .copied()
+            .unwrap_or(goal);
+        let d = target - here;
+        let err = wrap_angle(d.y.atan2(d.x) - pose.yaw);
+        let w = (HEADING_GAIN * err).clamp(-self.max_turn, self.max_turn);
+        if err.abs() > self.turn_in_place {
+            return (Command { v: 0.0, w }, MotionStatus::Busy);
+        }
+        let slow = if self.slow_clearance > self.radius {
+            ((clearance - self.radius) / (self.slow_clearance - self.radius))
+                .clamp(MIN_SPEED_FRACTION, 1.0)
+        } else {
+            1.0
+        };
+        let to_goal = (goal - here).norm();
+        let v = self.max_speed * err.cos().max(0.0) * slow * (to_goal / 0.5).min(1.0);
+        let next = super::robot::integrate(pose, v, w, self.dt);
+        let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
+        if next_clearance < self.guard_clearance && next_clearance < clearance {
+            // Moving on would bring the disc closer to a hazard than is safe: track tightly.
+            *tight = true;
+            return self.follow(pose, map);
+        }
+        (Command { v, w }, MotionStatus::Busy)
+    }
+
+    /// Starts backing off from the nearest hazard (see [`Phase::Escaping`]).
+    fn back_off(&mut self, pose: Pose2, map: &Map) -> (Command, MotionStatus) {
+        self.phase = Phase::Escaping {
+            steps_left: ESCAPE_STEPS,
+        };
+        self.step(pose, map)
+    }
+
+    fn limits(&self) -> Limits {
+        Limits {
+            dt: self.dt,
+            max_speed: self.max_speed,
+            max_turn: self.max_turn,
+            slow_clearance: self.slow_clearance,
+            guard_clearance: self.guard_clearance,
+        }
+    }
+}
+
+/// The executor's limits that tight tracking needs.
+struct Limits {
+    dt: f64,
+    max_speed: f64,
+    max_turn: f64,
+    slow_clearance: f64,
+    guard_clearance: f64,
+}
+
+/// A slow command along `path` (from the robot's progress on) itself, aimed at the point
+/// `TIGHT_LOOKAHEAD_M` ahead: turn in place toward it, then creep. A move is accepted if it keeps the
+/// guard clearance or does not come closer to the nearest hazard. `None` when no move is safe.
+fn track_tightly(
+    limits: &Limits,
+    pose: Pose2,
+    map: &Map,
+    path: &[Point2<f64>],
+    clearance: f64,
+) -> Option<Command> {
+    let here = pose.position();
+    let goal = *path.last()?;
+    let target = path
+        .iter()
+        .find(|p| (*p - here).norm() >= TIGHT_LOOKAHEAD_M)
+        .copied()
+        .unwrap_or(goal);
+    let d = target - here;
+    let err = wrap_angle(d.y.atan2(d.x) - pose.yaw);
+    let w = (HEADING_GAIN * err).clamp(-limits.max_turn, limits.max_turn);
+    if err.abs() > ALIGNED_RAD {
+        return Some(Command { v: 0.0, w });
+    }
+    let v = (MIN_SPEED_FRACTION * limits.max_speed).min(d.norm() / limits.dt);
+    let next = super::robot::integrate(pose, v, w, limits.dt);
+    let next_clearance = obstacle_clearance(map, next.position(), limits.slow_clearance);
+    let safe = next_clearance >= limits.guard_clearance || next_clearance >= clearance;
+    safe.then_some(Command { v, w })
 }
 
 /// Distance from `p` to the nearest hazard, searched within `max_m` (returns `max_m` when none is
@@ -259,4 +342,97 @@ pub fn nearest_obstacle(map: &Map, p: Point2<f64>, max_m: f64) -> Option<Point2<
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridSpec;
+    use crate::plan::search::Search;
+    use crate::scene::TriMesh;
+    use crate::sensor::raycast::testing::push_box;
+    use crate::sensor::{DepthCamera, MeshBvh};
+    use std::f64::consts::PI;
+
+    /// A room (y < 1.9) and a 0.8 m corridor along its top (y 2.0–2.8), joined by a 0.8 m door
+    /// (x 0.7–1.5) in the wall between them; the map is built from looks around in both.
+    fn room_and_corridor(cfg: &Config) -> (Map, MeshBvh) {
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [0.0, 0.0, 0.0], [6.0, 2.9, 2.5]);
+        push_box(&mut mesh, [0.0, 1.9, 0.0], [0.7, 2.0, 2.5]);
+        push_box(&mut mesh, [1.5, 1.9, 0.0], [6.0, 2.0, 2.5]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let grid = GridSpec::covering(
+            Point2::new(-0.5, -0.5),
+            Point2::new(6.5, 3.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let mut map = Map::new(grid, cfg);
+        let cam = DepthCamera::new(&cfg.camera);
+        let spots = [
+            (1.1, 1.0),
+            (3.0, 1.0),
+            (1.1, 2.4),
+            (2.5, 2.4),
+            (4.0, 2.4),
+            (5.5, 2.4),
+        ];
+        for (x, y) in spots {
+            for k in 0..16 {
+                map.integrate(&cam.capture(&bvh, Pose2::new(x, y, k as f64 * PI / 8.0)));
+            }
+            map.clear_footprint(x, y, cfg.robot.radius_m);
+        }
+        (map, bvh)
+    }
+
+    #[test]
+    fn a_path_around_a_door_jamb_is_followed_without_touching_it() {
+        let cfg = Config::default();
+        let (map, bvh) = room_and_corridor(&cfg);
+        let grid = *map.grid();
+        // Up through the door and right along the corridor: the path turns sharply around the
+        // door's right jamb, where pure pursuit cuts the corner.
+        let (start, goal) = (Point2::new(1.1, 1.0), Point2::new(4.0, 2.4));
+        let cell = |p: Point2<f64>| grid.index(grid.cell_of(p).unwrap());
+        let mut search = Search::new(&grid);
+        let path = search
+            .astar(
+                &grid,
+                |i| crate::plan::step_cost(&map, &cfg.search, start, i),
+                cell(start),
+                cell(goal),
+            )
+            .expect("the door is wide enough to plan through");
+        let path: Vec<Point2<f64>> = path.cells.iter().map(|c| grid.center(*c)).collect();
+        let mut exec = MotionExecutor::new(&cfg);
+        exec.start(&Action::Follow {
+            path,
+            look_on_arrival: false,
+        });
+        let mut pose = Pose2::new(start.x, start.y, PI / 2.0);
+        let top = cfg.robot.height_m.min(cfg.map.band_max_m);
+        let mut status = MotionStatus::Busy;
+        for _ in 0..2000 {
+            let (cmd, s) = exec.step(pose, &map);
+            pose = super::super::robot::integrate(pose, cmd.v, cmd.w, cfg.sim.dt_s);
+            assert!(
+                !bvh.cylinder_intersects(
+                    pose.x,
+                    pose.y,
+                    cfg.robot.radius_m,
+                    cfg.map.band_min_m,
+                    top
+                ),
+                "collision at {pose:?}"
+            );
+            status = s;
+            if s != MotionStatus::Busy {
+                break;
+            }
+        }
+        assert_eq!(status, MotionStatus::Done, "stopped at {pose:?}");
+        assert!((pose.position() - goal).norm() <= cfg.motion.goal_tolerance_m + 1e-9);
+    }
 }
