@@ -24,9 +24,18 @@ pub struct Constraint {
     /// The fine-grid cell when the constraint sits exactly at that cell's centre (surface samples):
     /// lets the fast evaluator use exact integer offsets and a weight table.
     pub cell: Option<Cell>,
+    /// Hard radius of influence, metres: the constraint counts only at points within it. Infinite
+    /// for the map's constraints; σ for THP's path constraints (§3.5: "the global path given by A*
+    /// can only modify the tensor field within its σ range").
+    pub radius: f64,
 }
 
 impl Constraint {
+    /// Whether the constraint counts at `p` (within its radius of influence).
+    pub fn counts_at(&self, p: Point2<f64>) -> bool {
+        self.radius == f64::INFINITY || (p - self.pos).norm_squared() <= self.radius * self.radius
+    }
+
     /// A constraint whose major eigenvector is along `dir`, with strength `strength`.
     pub fn along(
         pos: Point2<f64>,
@@ -40,6 +49,7 @@ impl Constraint {
             tensor: [strength * c, strength * s],
             strength,
             cell,
+            radius: f64::INFINITY,
         })
     }
 
@@ -58,9 +68,15 @@ pub fn double_angle(dx: f64, dy: f64) -> Option<[f64; 2]> {
 }
 
 /// Constraints along a polyline (THP Eq. 10): points resampled every `d_s` of arc length, each with
-/// the tangent `p_c - p_{c-1}` (the first uses `p_1 - p_0`) and strength `strength`. Their influence
-/// is the Gaussian band σ of Eq. 11, like every other constraint.
-pub fn path_constraints(path: &[Point2<f64>], d_s: f64, strength: f64) -> Vec<Constraint> {
+/// the tangent `p_c - p_{c-1}` (the first uses `p_1 - p_0`) and strength `strength`, weighted by the
+/// Gaussian of Eq. 11 like every other constraint and counting only within `radius` of themselves
+/// (THP uses σ; `f64::INFINITY` for no limit).
+pub fn path_constraints(
+    path: &[Point2<f64>],
+    d_s: f64,
+    strength: f64,
+    radius: f64,
+) -> Vec<Constraint> {
     if path.len() < 2 || d_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Vec::new();
     }
@@ -90,7 +106,7 @@ pub fn path_constraints(path: &[Point2<f64>], d_s: f64, strength: f64) -> Vec<Co
             } else {
                 (samples[c - 1], samples[c])
             };
-            Constraint::along(samples[c], q - p, strength, None)
+            Constraint::along(samples[c], q - p, strength, None).map(|c| Constraint { radius, ..c })
         })
         .collect()
 }
@@ -326,6 +342,7 @@ impl SurfaceSampler {
             tensor: [da / norm, db / norm],
             strength: 1.0,
             cell: Some(c),
+            radius: f64::INFINITY,
         })
     }
 }
@@ -405,11 +422,11 @@ mod tests {
             Point2::new(1.0, 0.0),
             Point2::new(1.0, 1.0),
         ];
-        let cs = path_constraints(&path, 0.2, 1.0);
+        let cs = path_constraints(&path, 0.2, 1.0, f64::INFINITY);
         assert_eq!(cs.len(), 11);
         assert_eq!(cs[1].tensor, [1.0, 0.0]);
         assert_eq!(cs[8].tensor, [-1.0, 0.0]);
         assert!((cs[8].pos - Point2::new(1.0, 0.6)).norm() < 1e-9);
-        assert!(path_constraints(&path[..1], 0.2, 1.0).is_empty());
+        assert!(path_constraints(&path[..1], 0.2, 1.0, f64::INFINITY).is_empty());
     }
 }

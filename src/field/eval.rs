@@ -13,6 +13,11 @@
 //! Incremental updates recompute only tiles whose `reach` contains an added or removed constraint;
 //! a tile's result depends only on the constraint set (bins are kept sorted), so the incremental field
 //! is bit-identical to a full recompute.
+//!
+//! A constraint with a finite radius of influence (THP's path constraints, see
+//! [`Constraint::radius`]) counts only at cells within that radius, for the sums and for `d_min`. The
+//! tile bounds above use the unlimited constraints alone; limited ones are gathered within
+//! `t + radius`, added term by term, and mark only the tiles within `t + radius` as changed.
 
 use super::constraints::Constraint;
 use crate::grid::{Cell, GridSpec};
@@ -85,17 +90,18 @@ impl TensorSample {
     }
 }
 
-/// Brute-force reference: every constraint, f64, no cutoff.
+/// Brute-force reference: every constraint that counts at `p`, f64, no cutoff.
 pub fn reference_at(constraints: &[Constraint], p: Point2<f64>, k: &Kernel) -> TensorSample {
     let q0 = constraints
         .iter()
+        .filter(|c| c.counts_at(p))
         .map(|c| (p - c.pos).norm_squared())
         .fold(f64::INFINITY, f64::min);
     let mut s = TensorSample::default();
     if !q0.is_finite() {
         return s;
     }
-    for c in constraints {
+    for c in constraints.iter().filter(|c| c.counts_at(p)) {
         let w = (-k.c * ((p - c.pos).norm_squared() - q0)).exp();
         s.a += w * c.tensor[0];
         s.b += w * c.tensor[1];
@@ -185,6 +191,9 @@ pub struct ConstraintStore {
     bins: Vec<Vec<u32>>,
     bx: i32,
     by: i32,
+    /// The largest finite radius of influence ever inserted (0 if none): how far around a tile
+    /// limited constraints are gathered.
+    max_radius: f64,
 }
 
 impl ConstraintStore {
@@ -198,6 +207,7 @@ impl ConstraintStore {
             bins: vec![Vec::new(); (bx * by) as usize],
             bx,
             by,
+            max_radius: 0.0,
         }
     }
 
@@ -225,6 +235,9 @@ impl ConstraintStore {
 
     /// Adds a constraint; returns its id.
     pub fn insert(&mut self, c: Constraint) -> u32 {
+        if c.radius.is_finite() {
+            self.max_radius = self.max_radius.max(c.radius);
+        }
         let id = match self.free.pop() {
             Some(id) => {
                 self.slots[id as usize] = Some(c);
@@ -273,7 +286,7 @@ impl ConstraintStore {
         self.len() == 0
     }
 
-    /// Distance from `p` to the nearest constraint (ring search over bins).
+    /// Distance from `p` to the nearest constraint of unlimited radius (ring search over bins).
     pub fn nearest_distance(&self, p: Point2<f64>) -> Option<f64> {
         let (px, py) = self.bin_of(p);
         let bin_m = BIN as f64 * self.fine.res;
@@ -290,7 +303,9 @@ impl ConstraintStore {
                     }
                     for &id in &self.bins[(y * self.bx + x) as usize] {
                         let c = self.slots[id as usize].as_ref().expect("live");
-                        best = best.min((p - c.pos).norm_squared());
+                        if c.radius == f64::INFINITY {
+                            best = best.min((p - c.pos).norm_squared());
+                        }
                     }
                 }
             }
@@ -401,11 +416,18 @@ impl FieldLevel {
         )
     }
 
-    fn mark(&mut self, p: Point2<f64>) {
+    /// Marks the tiles a change of constraint `c` can alter: those whose last `reach` contains it,
+    /// or for a limited constraint those with a cell within its radius.
+    fn mark(&mut self, c: &Constraint) {
         for tile in 0..self.reach.len() {
             if !self.dirty[tile] {
-                let (c, _) = self.tile_center_and_half(tile);
-                if (c - p).norm() < self.reach[tile] {
+                let (centre, t) = self.tile_center_and_half(tile);
+                let reach = if c.radius.is_finite() {
+                    t + c.radius
+                } else {
+                    self.reach[tile]
+                };
+                if (centre - c.pos).norm() <= reach {
                     self.dirty[tile] = true;
                 }
             }
@@ -414,14 +436,14 @@ impl FieldLevel {
 
     /// Adds a constraint (the field is updated by the next [`FieldLevel::refresh`]).
     pub fn insert(&mut self, c: Constraint) -> u32 {
-        self.mark(c.pos);
+        self.mark(&c);
         self.store.insert(c)
     }
 
     /// Removes a constraint (the field is updated by the next [`FieldLevel::refresh`]).
     pub fn remove(&mut self, id: u32) {
         if let Some(c) = self.store.remove(id) {
-            self.mark(c.pos);
+            self.mark(&c);
         }
     }
 
@@ -470,17 +492,26 @@ impl FieldLevel {
                 })
             })
             .collect();
-        let Some(d0) = self.store.nearest_distance(center) else {
-            return TileOut {
-                tile,
-                reach: f64::INFINITY,
-                values: cells.iter().map(|&(i, _)| (i, [0.0; 2], 0.0)).collect(),
-            };
-        };
         let k = &self.kernel;
-        let reach = t + ((d0 + t).powi(2) + k.r2).sqrt();
-        self.store.within(center, reach, cands);
-        let near_r2 = (d0 + 2.0 * t).powi(2) + 1e-9;
+        let d0 = self.store.nearest_distance(center);
+        // Unlimited constraints within `reach`; limited ones within `t + radius` (filtered per cell).
+        let reach = d0.map_or(f64::INFINITY, |d0| t + ((d0 + t).powi(2) + k.r2).sqrt());
+        let gather = if d0.is_some() {
+            reach.max(t + self.store.max_radius)
+        } else {
+            t + self.store.max_radius
+        };
+        self.store.within(center, gather, cands);
+        let limited: Vec<Constraint> = cands
+            .iter()
+            .filter(|c| c.radius.is_finite())
+            .copied()
+            .collect();
+        let reach2 = reach * reach;
+        cands.retain(|c| c.radius == f64::INFINITY && (c.pos - center).norm_squared() <= reach2);
+        // d_min² per cell: the nearest unlimited constraint (all within `D0 + 2t` of the centre) and
+        // the limited ones that count there.
+        let near_r2 = d0.map_or(0.0, |d0| (d0 + 2.0 * t).powi(2) + 1e-9);
         let near: Vec<Point2<f64>> = cands
             .iter()
             .filter(|c| (c.pos - center).norm_squared() <= near_r2)
@@ -491,15 +522,48 @@ impl FieldLevel {
             .map(|(_, p)| {
                 near.iter()
                     .map(|q| (p - q).norm_squared())
+                    .chain(
+                        limited
+                            .iter()
+                            .filter(|c| c.counts_at(*p))
+                            .map(|c| (p - c.pos).norm_squared()),
+                    )
                     .fold(f64::INFINITY, f64::min)
             })
             .collect();
+        // The limited terms of one cell, relative to its d_min.
+        let limited_terms = |ci: usize, p: Point2<f64>| -> [f64; 3] {
+            let mut out = [0.0; 3];
+            for c in limited.iter().filter(|c| c.counts_at(p)) {
+                let wt = (-k.c * ((p - c.pos).norm_squared() - dmin2[ci])).exp();
+                out[0] += wt * c.tensor[0];
+                out[1] += wt * c.tensor[1];
+                out[2] += wt * c.strength;
+            }
+            out
+        };
+        let Some(d0) = d0 else {
+            // No unlimited constraint: only limited ones, where they count.
+            let values = cells
+                .iter()
+                .enumerate()
+                .map(|(ci, &(i, p))| {
+                    let [a, b, w] = limited_terms(ci, p);
+                    (i, [a, b], w)
+                })
+                .collect();
+            return TileOut {
+                tile,
+                reach,
+                values,
+            };
+        };
         let q0 = (d0 - t).max(0.0).powi(2);
         let mut values = Vec::with_capacity(cells.len());
         if k.c * q0 > FAR_LIMIT {
             // Far from every constraint: direct exponentials per term (rare: open space early on).
             for (ci, (i, p)) in cells.iter().enumerate() {
-                let (mut a, mut b, mut w) = (0.0, 0.0, 0.0);
+                let [mut a, mut b, mut w] = limited_terms(ci, *p);
                 for c in cands.iter() {
                     let wt = (-k.c * ((p - c.pos).norm_squared() - dmin2[ci])).exp();
                     a += wt * c.tensor[0];
@@ -561,7 +625,12 @@ impl FieldLevel {
                 let cl = &col[j * n..(j + 1) * n];
                 let [a, b, w] = weighted_sums(cl, r, &ta, &tb, &st);
                 let scale = (k.c * (dmin2[ci] - q0)).exp();
-                values.push((cells[ci].0, [a * scale, b * scale], w * scale));
+                let [la, lb, lw] = limited_terms(ci, cells[ci].1);
+                values.push((
+                    cells[ci].0,
+                    [a * scale + la, b * scale + lb],
+                    w * scale + lw,
+                ));
                 ci += 1;
             }
         }
@@ -651,6 +720,14 @@ mod tests {
             &[Point2::new(2.0, 5.0), Point2::new(7.5, 2.3)],
             0.2,
             1.0,
+            f64::INFINITY,
+        ));
+        // A path whose constraints count only within 0.6 m, crossing the others.
+        cs.extend(path_constraints(
+            &[Point2::new(1.0, 1.5), Point2::new(8.0, 6.0)],
+            0.2,
+            1.0,
+            0.6,
         ));
         for (factor, sigma) in [(1, 0.5), (2, 1.0), (3, 0.7)] {
             let k = Kernel::new(sigma, 1.0, 1e-12);
@@ -698,6 +775,54 @@ mod tests {
         }
         full.recompute_all();
         assert_eq!(inc.grid, full.grid);
+    }
+
+    #[test]
+    fn limited_constraints_change_the_field_only_within_their_radius_and_incrementally() {
+        let g = fine();
+        let k = Kernel::new(0.5, 1.0, 1e-12);
+        let walls = wall_constraints(&g);
+        let mut inc = FieldLevel::new(g, 1, k);
+        for c in &walls {
+            inc.insert(*c);
+        }
+        inc.refresh();
+        let before = inc.grid.clone();
+        let radius = 0.5;
+        let path = path_constraints(
+            &[Point2::new(2.0, 2.0), Point2::new(6.0, 5.0)],
+            0.2,
+            1.0,
+            radius,
+        );
+        let ids: Vec<u32> = path.iter().map(|c| inc.insert(*c)).collect();
+        let partial = inc.refresh();
+        assert!(
+            partial > 0 && partial < g.cells() / 2,
+            "{partial} cells evaluated"
+        );
+        // Unchanged beyond the radius, changed on the path.
+        for i in 0..g.cells() {
+            let p = g.center(g.cell(i));
+            let near = path.iter().any(|c| (p - c.pos).norm() <= radius);
+            if !near {
+                assert_eq!(inc.grid.ab[i], before.ab[i], "cell {i} at {p:?}");
+            }
+        }
+        let on = g.index(g.cell_of(Point2::new(4.0, 3.5)).unwrap());
+        assert_ne!(inc.grid.ab[on], before.ab[on]);
+        // Incremental equals a full recompute, and removing the path restores the field exactly.
+        let mut full = FieldLevel::new(g, 1, k);
+        for c in walls.iter().chain(&path) {
+            full.insert(*c);
+        }
+        full.recompute_all();
+        assert_eq!(inc.grid, full.grid);
+        for id in ids {
+            inc.remove(id);
+        }
+        inc.refresh();
+        assert_eq!(inc.grid, before);
     }
 
     #[test]

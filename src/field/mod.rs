@@ -332,11 +332,14 @@ impl TensorField {
     }
 
     /// Replaces the path constraints (THP Eq. 10) of the planning field; the topology is unchanged.
+    /// The path changes the field only within σ of itself (THP §3.5), so an update recomputes a
+    /// narrow band around the old and the new path.
     pub fn set_path(&mut self, path: &[Point2<f64>]) -> usize {
         for id in std::mem::take(&mut self.path_ids) {
             self.main.remove(id);
         }
-        for c in path_constraints(path, self.cfg.d_s_m, self.cfg.path_strength) {
+        let sigma = self.cfg.sigma_m;
+        for c in path_constraints(path, self.cfg.d_s_m, self.cfg.path_strength, sigma) {
             if self.grid.cell_of(c.pos).is_some() {
                 self.path_ids.push(self.main.insert(c));
             }

@@ -140,6 +140,7 @@ fn translating_or_rotating_constraints_moves_points_and_field_alike() {
         ],
         0.2,
         1.0,
+        f64::INFINITY,
     );
     cs.retain(|c| c.pos.x > 0.0);
     let grid = GridSpec::covering(Point2::new(-3.0, -3.0), Point2::new(10.0, 10.0), 1.0, 0.1);

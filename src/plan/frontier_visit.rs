@@ -34,7 +34,7 @@ impl Visit {
 }
 
 /// What the planner remembers about frontier cells across plans.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct FrontierVisits {
     unobservable: Vec<bool>,
     approached: Vec<bool>,

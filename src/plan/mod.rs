@@ -62,6 +62,26 @@ pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize)
     })
 }
 
+/// [`step_cost`] of every cell, for a planning step that runs several searches from one robot
+/// position: one evaluation per cell instead of one per neighbour visit of every search.
+pub struct StepCosts(Vec<f32>);
+
+impl StepCosts {
+    pub fn new(map: &Map, cfg: &SearchConfig, robot: Point2<f64>) -> Self {
+        StepCosts(
+            (0..map.grid().cells())
+                .map(|i| step_cost(map, cfg, robot, i).unwrap_or(f32::INFINITY))
+                .collect(),
+        )
+    }
+
+    /// The cost of entering `cell`, as [`step_cost`] gives it.
+    pub fn get(&self, cell: usize) -> Option<f32> {
+        let c = self.0[cell];
+        c.is_finite().then_some(c)
+    }
+}
+
 /// The cell searches start from: the robot's own cell, unless the robot stands where no neighbour
 /// may be entered (pushed into an obstacle's inflation band, e.g. in a door barely wider than the
 /// robot); then the nearest enterable cell within `2·radius`, which the motion executor drives to

@@ -16,22 +16,31 @@ use std::collections::BinaryHeap;
 
 const SQRT2: f32 = std::f32::consts::SQRT_2;
 
-/// A heap entry: priority (f for A*, g for Dijkstra) and cell; ordered as a min-heap with the cell
-/// index breaking ties, so the expansion order is fully deterministic.
-#[derive(Clone, Copy, PartialEq)]
-struct Entry {
-    priority: f32,
-    cell: u32,
-}
+/// A heap entry: priority (f for A*, g for Dijkstra) and cell, packed into one `u64` as
+/// `priority bits << 32 | cell` and ordered as a min-heap. Priorities are finite and non-negative,
+/// whose IEEE bits order as the values do, so one integer comparison orders by priority and then by
+/// cell index: the expansion order is fully deterministic, and cheap to keep.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Entry(u64);
 
-impl Eq for Entry {}
+impl Entry {
+    fn new(priority: f32, cell: usize) -> Self {
+        debug_assert!(priority >= 0.0 && priority.is_finite());
+        Entry((u64::from(priority.to_bits()) << 32) | cell as u64)
+    }
+
+    fn priority(self) -> f32 {
+        f32::from_bits((self.0 >> 32) as u32)
+    }
+
+    fn cell(self) -> usize {
+        (self.0 & u64::from(u32::MAX)) as usize
+    }
+}
 
 impl Ord for Entry {
     fn cmp(&self, other: &Self) -> Ordering {
-        other
-            .priority
-            .total_cmp(&self.priority)
-            .then_with(|| other.cell.cmp(&self.cell))
+        other.0.cmp(&self.0)
     }
 }
 
@@ -221,12 +230,9 @@ impl Search {
         self.stamp[start] = self.generation;
         self.g[start] = 0.0;
         self.parent[start] = start as u32;
-        self.heap.push(Entry {
-            priority: heuristic(start),
-            cell: start as u32,
-        });
-        while let Some(Entry { cell, .. }) = self.heap.pop() {
-            let at = cell as usize;
+        self.heap.push(Entry::new(heuristic(start), start));
+        while let Some(entry) = self.heap.pop() {
+            let at = entry.cell();
             if self.closed[at] == self.generation {
                 continue;
             }
@@ -235,10 +241,7 @@ impl Search {
                 return Some(self.extract(grid, start, goal));
             }
             self.expand(grid, &cost, at, |heap, ni, g| {
-                heap.push(Entry {
-                    priority: g + heuristic(ni),
-                    cell: ni as u32,
-                })
+                heap.push(Entry::new(g + heuristic(ni), ni))
             });
         }
         None
@@ -255,6 +258,38 @@ impl Search {
         GridPath::new(grid, cells)
     }
 
+    /// Dijkstra from `source` under `cost` (the source need not be enterable): settles cells in
+    /// order of cost, calling `on_settle(cell, cost)` for each, until `on_settle` answers `true`,
+    /// every remaining cell costs more than `max_cost`, or nothing is left.
+    fn dijkstra(
+        &mut self,
+        grid: &GridSpec,
+        cost: &impl Fn(usize) -> Option<f32>,
+        source: usize,
+        max_cost: f32,
+        mut on_settle: impl FnMut(usize, f32) -> bool,
+    ) {
+        self.begin(grid);
+        self.stamp[source] = self.generation;
+        self.g[source] = 0.0;
+        self.parent[source] = source as u32;
+        self.heap.push(Entry::new(0.0, source));
+        while let Some(entry) = self.heap.pop() {
+            let at = entry.cell();
+            if self.closed[at] == self.generation {
+                continue;
+            }
+            if entry.priority() > max_cost {
+                break;
+            }
+            self.closed[at] = self.generation;
+            if on_settle(at, self.g[at]) {
+                break;
+            }
+            self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
+        }
+    }
+
     /// Dijkstra least-cost field from `source` under `cost` (the source need not be enterable),
     /// stopping once every remaining cell costs more than `max_cost`.
     pub fn distance_field(
@@ -264,30 +299,7 @@ impl Search {
         source: usize,
         max_cost: f32,
     ) -> DistanceField {
-        self.begin(grid);
-        self.stamp[source] = self.generation;
-        self.g[source] = 0.0;
-        self.parent[source] = source as u32;
-        self.heap.push(Entry {
-            priority: 0.0,
-            cell: source as u32,
-        });
-        while let Some(Entry { priority, cell }) = self.heap.pop() {
-            let at = cell as usize;
-            if self.closed[at] == self.generation {
-                continue;
-            }
-            if priority > max_cost {
-                break;
-            }
-            self.closed[at] = self.generation;
-            self.expand(grid, &cost, at, |heap, ni, g| {
-                heap.push(Entry {
-                    priority: g,
-                    cell: ni as u32,
-                })
-            });
-        }
+        self.dijkstra(grid, &cost, source, max_cost, |_, _| false);
         let mut cost = vec![f32::INFINITY; self.cells];
         let mut parent = vec![u32::MAX; self.cells];
         for i in 0..self.cells {
@@ -317,7 +329,6 @@ impl Search {
         targets: &[usize],
         max_cost: f32,
     ) -> Vec<Option<f32>> {
-        self.begin(grid);
         let mut left = targets.iter().filter(|&&t| t != source).count();
         let mut out: Vec<Option<f32>> = targets
             .iter()
@@ -326,38 +337,15 @@ impl Search {
         if left == 0 {
             return out;
         }
-        self.stamp[source] = self.generation;
-        self.g[source] = 0.0;
-        self.parent[source] = source as u32;
-        self.heap.push(Entry {
-            priority: 0.0,
-            cell: source as u32,
-        });
-        while let Some(Entry { priority, cell }) = self.heap.pop() {
-            let at = cell as usize;
-            if self.closed[at] == self.generation {
-                continue;
-            }
-            if priority > max_cost {
-                break;
-            }
-            self.closed[at] = self.generation;
+        self.dijkstra(grid, &cost, source, max_cost, |at, g| {
             for (k, &t) in targets.iter().enumerate() {
                 if t == at && out[k].is_none() {
-                    out[k] = Some(self.g[at]);
+                    out[k] = Some(g);
                     left -= 1;
                 }
             }
-            if left == 0 {
-                break;
-            }
-            self.expand(grid, &cost, at, |heap, ni, g| {
-                heap.push(Entry {
-                    priority: g,
-                    cell: ni as u32,
-                })
-            });
-        }
+            left == 0
+        });
         out
     }
 }

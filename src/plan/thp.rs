@@ -107,7 +107,8 @@ struct Goal {
     stale: bool,
 }
 
-/// The THP planner.
+/// The THP planner. Cloneable, so that a bench can replay one planning step from a saved state.
+#[derive(Clone)]
 pub struct Thp {
     cfg: ThpConfig,
     field_cfg: FieldConfig,
@@ -322,7 +323,13 @@ impl Thp {
 
     /// Solves the fixed-start open TSP over `nodes` (Eq. 6) from the node nearest the robot by path
     /// cost; each node is entered at its least-cost member. Returns node keys in tour order.
-    fn solve_tour(&mut self, ctx: &mut PlanContext, nodes: &[Node], fronts: &[Frontier]) {
+    fn solve_tour(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &super::StepCosts,
+        nodes: &[Node],
+        fronts: &[Frontier],
+    ) {
         let t = Instant::now();
         let access: Vec<usize> = nodes
             .iter()
@@ -341,7 +348,7 @@ impl Thp {
                 fa.total_cmp(&fb).then(a.cmp(&b))
             })
             .expect("at least one node");
-        let m = self.cost_matrix(ctx, &access);
+        let m = self.cost_matrix(ctx, costs, &access);
         let tour = tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes);
         self.tour = tour.order.iter().map(|&i| nodes[i].key).collect();
         self.tour_points = tour.order.iter().map(|&i| nodes[i].pos).collect();
@@ -360,9 +367,13 @@ impl Thp {
     /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); a pair missing from
     /// an old row is read from the other node's row (path costs are symmetric up to the proximity
     /// surcharge of the end cells).
-    fn cost_matrix(&mut self, ctx: &mut PlanContext, access: &[usize]) -> CostMatrix {
+    fn cost_matrix(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &super::StepCosts,
+        access: &[usize],
+    ) -> CostMatrix {
         let grid = *ctx.map.grid();
-        let (map, search_cfg, robot) = (ctx.map, &ctx.cfg.search, ctx.pose.position());
         let now = ctx.time_s;
         let refresh = self.cfg.cost_refresh_s;
         self.cost_rows
@@ -375,16 +386,12 @@ impl Thp {
             if self.cost_rows.contains_key(&source) {
                 continue;
             }
-            let costs = ctx.search.costs_to_targets(
-                &grid,
-                |c| super::step_cost(map, search_cfg, robot, c),
-                source,
-                access,
-                f32::INFINITY,
-            );
+            let row_costs =
+                ctx.search
+                    .costs_to_targets(&grid, |c| costs.get(c), source, access, f32::INFINITY);
             let row = access
                 .iter()
-                .zip(costs)
+                .zip(row_costs)
                 .map(|(&t, c)| (t, c.map_or(f64::INFINITY, f64::from)))
                 .collect();
             self.cost_rows.insert(source, (now, row));
@@ -412,13 +419,11 @@ impl Thp {
         else {
             return Ok(Some(Action::LookAround));
         };
-        let (map, search_cfg) = (ctx.map, &ctx.cfg.search);
-        let df = ctx.search.distance_field(
-            &grid,
-            |i| super::step_cost(map, search_cfg, robot, i),
-            start,
-            f32::INFINITY,
-        );
+        let map = ctx.map;
+        let costs = super::StepCosts::new(map, &ctx.cfg.search, robot);
+        let df = ctx
+            .search
+            .distance_field(&grid, |i| costs.get(i), start, f32::INFINITY);
         let (fronts, near, segment_cells) = self.frontiers(map, &df, robot);
         let nodes = match self.cfg.grouping {
             Grouping::Anchors => self.group_by_anchors(&fronts, robot),
@@ -496,7 +501,7 @@ impl Thp {
             Grouping::None | Grouping::Kmeans => true,
         };
         if resolve {
-            self.solve_tour(ctx, &nodes, &fronts);
+            self.solve_tour(ctx, &costs, &nodes, &fronts);
         } else {
             // Follow the tour: drop visited anchors, keep the order.
             let keep: Vec<(usize, Point2<f64>)> = self
@@ -537,12 +542,7 @@ impl Thp {
                 return Ok(None);
             }
         }
-        let Some(path) = ctx.search.astar(
-            &grid,
-            |i| super::step_cost(map, search_cfg, robot, i),
-            start,
-            f.aim,
-        ) else {
+        let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
             self.visits.finished(map, &visit, false);
             return Ok(Some(Action::LookAround));

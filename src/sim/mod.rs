@@ -6,4 +6,4 @@ pub mod robot;
 pub mod run;
 
 pub use metrics::{RunResult, Termination};
-pub use run::{run, NoObserver, Observer, RunOutput, StepView, World};
+pub use run::{run, run_planner, NoObserver, Observer, RunOutput, StepView, World};

@@ -8,7 +8,7 @@ use super::robot::Robot;
 use crate::config::Config;
 use crate::map::Map;
 use crate::plan::search::Search;
-use crate::plan::{Action, PlanContext, PlannerKind};
+use crate::plan::{Action, PlanContext, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
 use crate::{Pose2, Result};
@@ -79,13 +79,24 @@ pub fn run(
     planner: PlannerKind,
     observer: &mut dyn Observer,
 ) -> Result<RunOutput> {
+    let mut planner = planner.build(cfg)?;
+    run_planner(scene, world, cfg, planner.as_mut(), observer)
+}
+
+/// [`run`] with a planner object the caller built (benches wrap a planner to record its states).
+pub fn run_planner(
+    scene: &Scene,
+    world: World,
+    cfg: &Config,
+    planner: &mut dyn Planner,
+    observer: &mut dyn Observer,
+) -> Result<RunOutput> {
     let wall_start = Instant::now();
     let World {
         ground_truth: gt,
         bvh,
     } = world;
     let grid = gt.grid;
-    let mut planner = planner.build(cfg)?;
     let mut map = Map::new(grid, cfg);
     let camera = DepthCamera::new(&cfg.camera);
     let mut frame = DepthFrame::default();
