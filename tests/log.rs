@@ -83,6 +83,7 @@ fn log_replays_verifies_and_is_never_overwritten() {
         s["messages"]["/plan/path"],
         s["messages"]["/plan/frontiers"]
     );
+    assert_eq!(s["messages"]["/plan/tour"], s["messages"]["/plan/path"]);
     let ms = s["milestones"].as_array().unwrap();
     assert_eq!(ms.len(), 4);
     assert_eq!(ms[3]["completeness"], result["completeness"]);

@@ -4,6 +4,7 @@ use super::{check_output, parse_spawn, ConfigArgs};
 use anyhow::Result;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::Point2;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
@@ -58,11 +59,11 @@ impl Observer for Both<'_> {
             .chain(self.1.iter_mut())
             .for_each(|o| o.on_step(view));
     }
-    fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map) {
+    fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map, tour: &[Point2<f64>]) {
         self.0
             .iter_mut()
             .chain(self.1.iter_mut())
-            .for_each(|o| o.on_plan(time_s, action, map));
+            .for_each(|o| o.on_plan(time_s, action, map, tour));
     }
     fn on_finish(&mut self, result: &RunResult) {
         self.0

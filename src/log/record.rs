@@ -9,6 +9,7 @@ use crate::plan::Action;
 use crate::sim::metrics::STAGES;
 use crate::sim::{Observer, RunResult, StepView};
 use crate::Pose2;
+use nalgebra::Point2;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -251,6 +252,33 @@ pub fn path_message(time_s: f64, action: &Action) -> Value {
     entity(time_s, "astar_path", Vec::new(), vec![line])
 }
 
+/// `/plan/tour`: the planner's tour (THP: anchors and groups in TSP order; NBV-TSP: viewpoints in GA
+/// order) as an orange line strip with a sphere per stop, the first one larger. Empty without a tour.
+pub fn tour_message(time_s: f64, tour: &[Point2<f64>]) -> Value {
+    let orange = colour([245, 130, 48]);
+    let spheres = tour
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let size = if k == 0 { 0.35 } else { 0.2 };
+            json!({
+                "pose": pose_json(p.x, p.y, 0.1, 0.0),
+                "size": {"x": size, "y": size, "z": size}, "color": orange
+            })
+        })
+        .collect();
+    let points: Vec<Value> = tour
+        .iter()
+        .map(|p| json!({"x": p.x, "y": p.y, "z": 0.1}))
+        .collect();
+    let line = json!({
+        "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": 0.04,
+        "scale_invariant": false, "points": points, "color": orange,
+        "colors": [], "indices": []
+    });
+    entity(time_s, "tour", spheres, vec![line])
+}
+
 /// `/metrics`: the step's metrics; `stage_ms` is wall-clock and not compared by `--verify`.
 pub fn metrics_message(view: &StepView) -> Value {
     let stage_ms: BTreeMap<&str, f64> = STAGES.iter().copied().zip(view.stage_ms).collect();
@@ -286,12 +314,20 @@ impl<S: Sink> Observer for Recorder<S> {
                 &grid_message(view.time_s, view.map),
             );
             if self.cfg.field {
-                let (cfg, map) = (&self.field_cfg, view.map);
-                let field = self
-                    .field
-                    .get_or_insert_with(|| TensorField::new(*map.grid(), cfg));
-                // The field's grid is the map's, so update cannot fail on a grid mismatch.
-                if field.update(map).is_ok() {
+                // The planner's own field when it has one (what THP and TENSOR steer by, path
+                // constraints included); else one built here from the map.
+                let field = match view.field {
+                    Some(f) => Some(f),
+                    None => {
+                        let (cfg, map) = (&self.field_cfg, view.map);
+                        let own = self
+                            .field
+                            .get_or_insert_with(|| TensorField::new(*map.grid(), cfg));
+                        // The field's grid is the map's, so update cannot fail on a grid mismatch.
+                        own.update(map).is_ok().then_some(&*own)
+                    }
+                };
+                if let Some(field) = field {
                     let tensor = field_tensor_message(view.time_s, field);
                     let degenerate = degenerate_message(view.time_s, field);
                     let topology = topology_message(view.time_s, field);
@@ -307,13 +343,14 @@ impl<S: Sink> Observer for Recorder<S> {
         self.put(&topics::METRICS, view.time_s, &metrics_message(view));
     }
 
-    fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map) {
+    fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map, tour: &[Point2<f64>]) {
         self.put(
             &topics::PLAN_FRONTIERS,
             time_s,
             &frontiers_message(time_s, map),
         );
         self.put(&topics::PLAN_PATH, time_s, &path_message(time_s, action));
+        self.put(&topics::PLAN_TOUR, time_s, &tour_message(time_s, tour));
     }
 
     fn on_finish(&mut self, result: &RunResult) {

@@ -330,10 +330,10 @@ fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
 
 /// Writes `frame_NNNN.png` every `every_s` simulated seconds and `overview.png`: the latest map
 /// key frame (unknown grey, free white, obstacles black, frontier cells orange), frontiers coloured
-/// by group, the A* path, the driven path, and the robot with its camera frustum. Returns the
-/// number of frames written. Degenerate points are drawn when `log.field` was on; field glyphs,
-/// the TSP tour and the advected pathline are not drawn yet (simplification: they join with the
-/// THP/TENSOR/NBV planners' topics).
+/// by group, the planner's tour (orange, first stop larger), the path being followed (an A* path or
+/// an advected pathline), the driven path, and the robot with its camera frustum. Returns the
+/// number of frames written. Field glyphs, separatrices and degenerate points are drawn when
+/// `log.field` was on.
 pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
     use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
@@ -342,6 +342,9 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_spheres(v)));
     let degenerate = decoded(log, &topics::FIELD_DEGENERATE, |v| Some(decode_spheres(v)));
     let paths = decoded(log, &topics::PLAN_PATH, |v| Some(decode_path(v)));
+    let tours = decoded(log, &topics::PLAN_TOUR, |v| {
+        Some((decode_path(v), decode_spheres(v)))
+    });
     let tensors = decoded(log, &topics::FIELD_TENSOR, |v| {
         Some((decode_grid_at(v, 0)?, decode_grid_at(v, 4)?))
     });
@@ -396,6 +399,13 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
             // Degenerate points by type (wedge green, trisector red), when the field was logged.
             for (p, c) in latest(&degenerate, t_ns).into_iter().flatten() {
                 canvas.disc(*p, (cell_px * 1.5).max(3.0), *c);
+            }
+            if let Some((line, stops)) = latest(&tours, t_ns) {
+                canvas.polyline(line, 1.5, image::Rgb([245, 130, 48]));
+                for (k, (p, c)) in stops.iter().enumerate() {
+                    let r = if k == 0 { 2.0 } else { 1.2 } * cell_px;
+                    canvas.disc(*p, r.max(2.0), *c);
+                }
             }
             if let Some(path) = latest(&paths, t_ns) {
                 canvas.polyline(path, 2.0, image::Rgb([150, 40, 200]));

@@ -76,6 +76,13 @@ pub const PLAN_PATH: Topic = Topic {
     verified: true,
 };
 
+pub const PLAN_TOUR: Topic = Topic {
+    name: "/plan/tour",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
+
 pub const FIELD_TENSOR: Topic = Topic {
     name: "/field/tensor",
     schema_name: "foxglove.Grid",
@@ -107,8 +114,8 @@ pub const METRICS: Topic = Topic {
     verified: true,
 };
 
-/// Every topic, in channel-id order. `/plan/tour` joins here when the THP/NBV planners land.
-pub const TOPICS: [&Topic; 9] = [
+/// Every topic, in channel-id order.
+pub const TOPICS: [&Topic; 10] = [
     &POSE,
     &DEPTH,
     &MAP_GRID,
@@ -117,6 +124,7 @@ pub const TOPICS: [&Topic; 9] = [
     &FIELD_TOPOLOGY,
     &PLAN_FRONTIERS,
     &PLAN_PATH,
+    &PLAN_TOUR,
     &METRICS,
 ];
 

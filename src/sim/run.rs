@@ -6,12 +6,14 @@ use super::metrics::{
 use super::motion::{MotionExecutor, MotionStatus};
 use super::robot::Robot;
 use crate::config::Config;
+use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
 use crate::plan::{Action, PlanContext, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
 use crate::{Pose2, Result};
+use nalgebra::Point2;
 use std::time::Instant;
 
 /// What an observer sees after each step (for progress bars and logs).
@@ -27,6 +29,8 @@ pub struct StepView<'a> {
     pub explored_volume_m3: f64,
     pub collisions: u64,
     pub replans: u64,
+    /// The planner's own tensor field (THP, TENSOR; with THP's path constraints), if it has one.
+    pub field: Option<&'a TensorField>,
     /// Wall time of this step's stages (see `metrics::STAGES`), milliseconds: not deterministic.
     pub stage_ms: [f64; 5],
 }
@@ -34,8 +38,9 @@ pub struct StepView<'a> {
 /// Receives every step of a run; all methods default to doing nothing.
 pub trait Observer {
     fn on_step(&mut self, _view: &StepView) {}
-    /// Called when the planner chose a new action (after `on_step` of the same step, if any).
-    fn on_plan(&mut self, _time_s: f64, _action: &Action, _map: &Map) {}
+    /// Called when the planner chose a new action (after `on_step` of the same step, if any), with
+    /// the planner's tour (TSP order of its goals; empty for planners without one).
+    fn on_plan(&mut self, _time_s: f64, _action: &Action, _map: &Map, _tour: &[Point2<f64>]) {}
     /// Called once with the result, after the loop ended.
     fn on_finish(&mut self, _result: &RunResult) {}
     /// Checked every step: `true` ends the run with `Termination::Interrupted`.
@@ -195,7 +200,7 @@ pub fn run_planner(
                         termination = Termination::Complete;
                     }
                     Ok(a) => {
-                        observer.on_plan(time_s, &a, &map);
+                        observer.on_plan(time_s, &a, &map, &planner.tour());
                         action = a;
                         motion.start(&action);
                         need_plan = false;
@@ -272,6 +277,7 @@ pub fn run_planner(
             explored_volume_m3: volume,
             collisions,
             replans,
+            field: planner.field(),
             stage_ms: stage_ms([t0, t1, t2, t3, t4, t5]),
         });
         if step - last_gain_step >= stuck_steps {

@@ -21,6 +21,7 @@ SCHEMAS = {
     "/field/topology": "foxglove.SceneUpdate",
     "/plan/frontiers": "foxglove.SceneUpdate",
     "/plan/path": "foxglove.SceneUpdate",
+    "/plan/tour": "foxglove.SceneUpdate",
     "/metrics": "tensorscout.Metrics",
 }
 
