@@ -80,6 +80,20 @@ struct Frontier {
     cost: f32,
 }
 
+impl Frontier {
+    /// The visit of this frontier's segment (`segment_cells` as returned by `Thp::frontiers`).
+    fn visit(&self, grid: &GridSpec, segment_cells: &[Vec<usize>], near_view: bool) -> Visit {
+        Visit {
+            target: segment_cells[self.segment]
+                .iter()
+                .map(|&i| grid.cell(i))
+                .collect(),
+            aim: self.aim,
+            near_view,
+        }
+    }
+}
+
 /// A TSP node of one plan: an anchor with its group, a single frontier, or a k-means cluster.
 #[derive(Clone, Debug)]
 struct Node {
@@ -468,14 +482,7 @@ impl Thp {
                 }
                 return Ok(Some(Action::Complete));
             };
-            let visit = Visit {
-                target: segment_cells[f.segment]
-                    .iter()
-                    .map(|&i| grid.cell(i))
-                    .collect(),
-                aim: f.aim,
-                near_view: true,
-            };
+            let visit = f.visit(&grid, &segment_cells, true);
             let Some(v) =
                 blind_zone_viewpoint(map, &df, grid.center(grid.cell(f.aim)), self.view_m)
             else {
@@ -526,14 +533,7 @@ impl Thp {
             .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
             .expect("nodes have members")
             .clone();
-        let visit = Visit {
-            target: segment_cells[f.segment]
-                .iter()
-                .map(|&i| grid.cell(i))
-                .collect(),
-            aim: f.aim,
-            near_view: false,
-        };
+        let visit = f.visit(&grid, &segment_cells, false);
         // Keep the current A* path if the goal did not change.
         if let Some(g) = &mut self.goal {
             if g.visit.aim == visit.aim && !g.stale {
