@@ -49,6 +49,11 @@ pub struct Cell {
     pub collisions: u64,
     /// Mean over runs of each stage's mean per-step wall time, ms.
     pub timings_ms: BTreeMap<String, f64>,
+    /// A* queries per run.
+    pub astar_calls: MeanStd,
+    /// TSP time per planning step that solved one (THP, NBV-TSP), ms: mean over runs of each run's
+    /// mean, p50 and p95; absent for planners without a TSP.
+    pub tsp_ms: Option<[f64; 3]>,
 }
 
 /// One planner over the whole batch.
@@ -168,6 +173,16 @@ impl Summary {
                 sim_time_s: col(&|r| r.sim_time_s),
                 collisions: ok.iter().map(|r| r.collisions).sum(),
                 timings_ms,
+                astar_calls: col(&|r| r.astar_calls as f64),
+                tsp_ms: {
+                    let tsp: Vec<_> = ok.iter().filter_map(|r| r.timings_ms.get("tsp")).collect();
+                    (!tsp.is_empty()).then(|| {
+                        let m = |f: &dyn Fn(&crate::sim::metrics::StageStats) -> f64| {
+                            tsp.iter().map(|t| f(t)).sum::<f64>() / tsp.len() as f64
+                        };
+                        [m(&|t| t.mean), m(&|t| t.p50), m(&|t| t.p95)]
+                    })
+                },
             });
         }
         // r_ε: this cell's mean ε over the reference cell's on the same scene.
@@ -289,6 +304,19 @@ impl Summary {
             }
             s.push_str(&format!(" {total:.3} |\n"));
         }
+        if self.cells.iter().any(|c| c.tsp_ms.is_some()) {
+            s.push_str("\n## TSP time per planning step (THP Fig. 8)\n\nWall time of the cost matrix and the solve, per planning step that solved a TSP, ms (mean over runs); A* queries per run.\n\n| scene | planner | mean | p50 | p95 | A* calls |\n|---|---|---:|---:|---:|---:|\n");
+            for c in &self.cells {
+                if let Some([mean, p50, p95]) = c.tsp_ms {
+                    s.push_str(&format!(
+                        "| {} | {} | {mean:.3} | {p50:.3} | {p95:.3} | {:.0} |\n",
+                        scene_name(&c.scene),
+                        c.planner,
+                        c.astar_calls.mean
+                    ));
+                }
+            }
+        }
         s.push_str("\n## Verdict\n\n");
         for v in &self.verdicts {
             if v.failed == v.runs {
@@ -365,6 +393,42 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn tsp_time_per_planning_step_is_averaged_over_runs() {
+        let with_tsp = |mean: f64, p50: f64, p95: f64| {
+            let mut r = row("thp", "c1", Some(8.0));
+            let stats = crate::sim::metrics::StageStats {
+                mean,
+                p50,
+                p95,
+                max: p95,
+            };
+            let result = r.result.as_mut().unwrap();
+            result.timings_ms.insert("tsp".into(), stats);
+            result.astar_calls = 10;
+            r
+        };
+        let rows = [
+            with_tsp(1.0, 0.5, 3.0),
+            with_tsp(3.0, 1.5, 5.0),
+            row("greedy", "c1", Some(4.0)),
+        ];
+        let s = Summary::of(&rows, None);
+        let thp = s.cells.iter().find(|c| c.planner == "thp").unwrap();
+        assert_eq!(thp.tsp_ms, Some([2.0, 1.0, 4.0]));
+        assert_eq!(thp.astar_calls.mean, 10.0);
+        let greedy = s.cells.iter().find(|c| c.planner == "greedy").unwrap();
+        assert_eq!(greedy.tsp_ms, None);
+        let md = s.to_markdown();
+        let section = md.split("## TSP time per planning step").nth(1).unwrap();
+        let section = section.split("## Verdict").next().unwrap();
+        assert!(
+            section.contains("| a | thp | 2.000 | 1.000 | 4.000 | 10 |"),
+            "{md}"
+        );
+        assert!(!section.contains("greedy"), "{md}");
     }
 
     #[test]
