@@ -335,12 +335,14 @@ impl Thp {
             .collect()
     }
 
-    /// Solves the fixed-start open TSP over `nodes` (Eq. 6) from the node nearest the robot by path
-    /// cost; each node is entered at its least-cost member. Returns node keys in tour order.
+    /// Solves the fixed-start open TSP over `nodes` (Eq. 6) from the node whose anchor is nearest the
+    /// robot by path cost (Alg. 1: "start at the anchor nearest the robot"); each node is entered at
+    /// its least-cost member. Sets the tour (node keys in order).
     fn solve_tour(
         &mut self,
         ctx: &mut PlanContext,
         costs: &super::StepCosts,
+        df: &DistanceField,
         nodes: &[Node],
         fronts: &[Frontier],
     ) {
@@ -356,9 +358,13 @@ impl Thp {
                     .aim
             })
             .collect();
+        let grid = *ctx.map.grid();
         let start = (0..nodes.len())
             .min_by(|&a, &b| {
-                let (fa, fb) = (node_cost(&nodes[a], fronts), node_cost(&nodes[b], fronts));
+                let (fa, fb) = (
+                    anchor_cost(&grid, df, &nodes[a], fronts),
+                    anchor_cost(&grid, df, &nodes[b], fronts),
+                );
                 fa.total_cmp(&fb).then(a.cmp(&b))
             })
             .expect("at least one node");
@@ -508,7 +514,7 @@ impl Thp {
             Grouping::None | Grouping::Kmeans => true,
         };
         if resolve {
-            self.solve_tour(ctx, &costs, &nodes, &fronts);
+            self.solve_tour(ctx, &costs, &df, &nodes, &fronts);
         } else {
             // Follow the tour: drop visited anchors, keep the order.
             let keep: Vec<(usize, Point2<f64>)> = self
@@ -787,11 +793,18 @@ fn on_floor(map: &Map, grid: &GridSpec, p: Point2<f64>) -> bool {
 }
 
 /// Least path cost of a node's members from the robot.
-fn node_cost(node: &Node, fronts: &[Frontier]) -> f32 {
-    node.members
-        .iter()
-        .map(|&m| fronts[m].cost)
-        .fold(f32::INFINITY, f32::min)
+/// Path cost from the robot to a node's anchor (its position): from the robot's distance field where
+/// the anchor's cell is reachable, else through its nearest member (member cost plus the straight
+/// distance on to the anchor), as a frontier anchor's centroid may fall off the known floor.
+fn anchor_cost(grid: &GridSpec, df: &DistanceField, node: &Node, fronts: &[Frontier]) -> f32 {
+    grid.cell_of(node.pos)
+        .and_then(|c| df.cost_to(grid.index(c)))
+        .unwrap_or_else(|| {
+            node.members
+                .iter()
+                .map(|&m| fronts[m].cost + (fronts[m].pos - node.pos).norm() as f32)
+                .fold(f32::INFINITY, f32::min)
+        })
 }
 
 /// Group splitting, THP Eq. 9 — the reading used here.
