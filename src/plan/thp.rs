@@ -548,6 +548,16 @@ impl Thp {
                 return Ok(None);
             }
         }
+        // A* calls by cause, for the advection claim (§3.5): a new goal, or the same goal again.
+        let same_goal = self.goal.as_ref().is_some_and(|g| g.visit.aim == visit.aim);
+        self.count(
+            if same_goal {
+                "astar_same_goal"
+            } else {
+                "astar_new_goal"
+            },
+            1.0,
+        );
         let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
             self.visits.finished(map, &visit, false);
@@ -701,6 +711,9 @@ impl Planner for Thp {
             let (map, search_cfg) = (ctx.map, &ctx.cfg.search);
             let goal = self.goal.clone().expect("a goal is set");
             let start = super::search_source(map, search_cfg, robot, self.radius_m);
+            if start.is_some() {
+                self.count("astar_same_goal", 1.0);
+            }
             let path = start.and_then(|s| {
                 ctx.search.astar(
                     &grid,
