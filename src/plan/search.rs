@@ -50,67 +50,6 @@ impl PartialOrd for Entry {
     }
 }
 
-/// A monotone priority queue of packed [`Entry`] keys (a radix heap) for Dijkstra, whose keys only
-/// grow: every pushed key is larger than the last popped one (step costs are positive). Bucket `b`
-/// holds keys whose highest bit differing from the last popped key is bit `b − 1` (bucket 0: equal
-/// to it). It pops the same keys in the same order as a binary heap, with cheaper pushes and pops.
-struct RadixHeap {
-    buckets: Vec<Vec<u64>>,
-    last: u64,
-    len: usize,
-}
-
-impl RadixHeap {
-    fn new() -> Self {
-        RadixHeap {
-            buckets: vec![Vec::new(); 65],
-            last: 0,
-            len: 0,
-        }
-    }
-
-    fn clear(&mut self) {
-        self.buckets.iter_mut().for_each(Vec::clear);
-        self.last = 0;
-        self.len = 0;
-    }
-
-    fn bucket(&self, key: u64) -> usize {
-        64 - (key ^ self.last).leading_zeros() as usize
-    }
-
-    fn push(&mut self, e: Entry) {
-        debug_assert!(e.0 >= self.last, "radix heap keys must not decrease");
-        let b = self.bucket(e.0);
-        self.buckets[b].push(e.0);
-        self.len += 1;
-    }
-
-    fn pop(&mut self) -> Option<Entry> {
-        if self.len == 0 {
-            return None;
-        }
-        if self.buckets[0].is_empty() {
-            // Move the lowest non-empty bucket down around its minimum, which becomes `last`.
-            let b = (1..self.buckets.len())
-                .find(|&b| !self.buckets[b].is_empty())
-                .expect("len > 0");
-            let keys = std::mem::take(&mut self.buckets[b]);
-            self.last = *keys.iter().min().expect("non-empty bucket");
-            for &k in &keys {
-                let nb = self.bucket(k);
-                self.buckets[nb].push(k);
-            }
-            // Hand the allocation back for reuse.
-            let mut keys = keys;
-            keys.clear();
-            self.buckets[b] = keys;
-        }
-        self.len -= 1;
-        self.buckets[0].pop().map(Entry)
-    }
-}
-
 /// A found path: the cells from start to goal, and its length in metres.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridPath {
@@ -127,7 +66,6 @@ pub struct Search {
     g: Vec<f32>,
     parent: Vec<u32>,
     heap: BinaryHeap<Entry>,
-    radix: RadixHeap,
     /// Number of A* queries answered, for reports.
     pub astar_calls: u64,
 }
@@ -193,7 +131,6 @@ impl Search {
             g: vec![f32::INFINITY; n],
             parent: vec![u32::MAX; n],
             heap: BinaryHeap::new(),
-            radix: RadixHeap::new(),
             astar_calls: 0,
         }
     }
@@ -205,7 +142,6 @@ impl Search {
             "search workspace built for another grid"
         );
         self.heap.clear();
-        self.radix.clear();
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
             // Wrapped: stale stamps could alias the new generation.
@@ -223,14 +159,13 @@ impl Search {
         }
     }
 
-    /// Relaxes the neighbours of `at`; `push` receives the queues (A*'s binary heap, Dijkstra's
-    /// radix heap), each improved neighbour and its new g.
+    /// Relaxes the neighbours of `at`; `push` receives each improved neighbour and its new g.
     fn expand(
         &mut self,
         grid: &GridSpec,
         cost: &impl Fn(usize) -> Option<f32>,
         at: usize,
-        mut push: impl FnMut(&mut BinaryHeap<Entry>, &mut RadixHeap, usize, f32),
+        mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
         let c = grid.cell(at);
         let g_at = self.g[at];
@@ -265,7 +200,7 @@ impl Search {
                 self.stamp[ni] = self.generation;
                 self.g[ni] = g_new;
                 self.parent[ni] = at as u32;
-                push(&mut self.heap, &mut self.radix, ni, g_new);
+                push(&mut self.heap, ni, g_new);
             }
         }
     }
@@ -305,7 +240,7 @@ impl Search {
             if at == goal {
                 return Some(self.extract(grid, start, goal));
             }
-            self.expand(grid, &cost, at, |heap, _, ni, g| {
+            self.expand(grid, &cost, at, |heap, ni, g| {
                 heap.push(Entry::new(g + heuristic(ni), ni))
             });
         }
@@ -338,8 +273,8 @@ impl Search {
         self.stamp[source] = self.generation;
         self.g[source] = 0.0;
         self.parent[source] = source as u32;
-        self.radix.push(Entry::new(0.0, source));
-        while let Some(entry) = self.radix.pop() {
+        self.heap.push(Entry::new(0.0, source));
+        while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
             if self.closed[at] == self.generation {
                 continue;
@@ -351,9 +286,7 @@ impl Search {
             if on_settle(at, self.g[at]) {
                 break;
             }
-            self.expand(grid, cost, at, |_, radix, ni, g| {
-                radix.push(Entry::new(g, ni))
-            });
+            self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
         }
     }
 
@@ -492,36 +425,6 @@ mod tests {
 
     /// A* lengths equal Dijkstra distances on random obstacle grids, and Dijkstra paths have the
     /// length they claim.
-    #[test]
-    fn radix_heap_pops_what_a_binary_heap_pops() {
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let mut radix = RadixHeap::new();
-        let mut binary = BinaryHeap::new();
-        let mut last = 0.0f32;
-        for round in 0..2000 {
-            // Dijkstra-like: pushes above the last popped priority, pops in between.
-            for _ in 0..rng.random_range(0..4) {
-                let e = Entry::new(
-                    last + rng.random_range(0.1f32..3.0),
-                    rng.random_range(0..500),
-                );
-                radix.push(e);
-                binary.push(e);
-            }
-            if round % 3 != 0 {
-                let (r, b) = (radix.pop(), binary.pop());
-                assert!(r == b, "round {round}");
-                if let Some(e) = r {
-                    last = e.priority();
-                }
-            }
-        }
-        while let Some(b) = binary.pop() {
-            assert!(radix.pop() == Some(b));
-        }
-        assert!(radix.pop().is_none());
-    }
-
     #[test]
     fn astar_agrees_with_dijkstra_on_random_grids() {
         let g = grid(30);
