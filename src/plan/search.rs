@@ -50,6 +50,16 @@ impl PartialOrd for Entry {
     }
 }
 
+/// The search state of one cell: valid for the query whose generation is `stamp`; settled when
+/// `closed` equals it too.
+#[derive(Clone, Copy)]
+struct CellState {
+    stamp: u32,
+    closed: u32,
+    g: f32,
+    parent: u32,
+}
+
 /// A found path: the cells from start to goal, and its length in metres.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridPath {
@@ -61,10 +71,8 @@ pub struct GridPath {
 pub struct Search {
     cells: usize,
     generation: u32,
-    stamp: Vec<u32>,
-    closed: Vec<u32>,
-    g: Vec<f32>,
-    parent: Vec<u32>,
+    /// Per-cell search state, one 16-byte record per cell so a relaxation touches one cache line.
+    state: Vec<CellState>,
     heap: BinaryHeap<Entry>,
     /// Number of A* queries answered, for reports.
     pub astar_calls: u64,
@@ -126,10 +134,15 @@ impl Search {
         Search {
             cells: n,
             generation: 0,
-            stamp: vec![0; n],
-            closed: vec![0; n],
-            g: vec![f32::INFINITY; n],
-            parent: vec![u32::MAX; n],
+            state: vec![
+                CellState {
+                    stamp: 0,
+                    closed: 0,
+                    g: f32::INFINITY,
+                    parent: u32::MAX,
+                };
+                n
+            ],
             heap: BinaryHeap::new(),
             astar_calls: 0,
         }
@@ -145,15 +158,18 @@ impl Search {
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
             // Wrapped: stale stamps could alias the new generation.
-            self.stamp.fill(0);
-            self.closed.fill(0);
+            for s in &mut self.state {
+                s.stamp = 0;
+                s.closed = 0;
+            }
             self.generation = 1;
         }
     }
 
     fn g_of(&self, i: usize) -> f32 {
-        if self.stamp[i] == self.generation {
-            self.g[i]
+        let s = &self.state[i];
+        if s.stamp == self.generation {
+            s.g
         } else {
             f32::INFINITY
         }
@@ -168,7 +184,7 @@ impl Search {
         mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
         let c = grid.cell(at);
-        let g_at = self.g[at];
+        let g_at = self.state[at].g;
         let res = grid.res as f32;
         let mut open4 = [false; 4];
         for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
@@ -191,15 +207,18 @@ impl Search {
             let Some(multiplier) = multiplier else {
                 continue;
             };
-            if self.closed[ni] == self.generation {
+            if self.state[ni].closed == self.generation {
                 continue;
             }
             let step = multiplier * if k < 4 { res } else { res * SQRT2 };
             let g_new = g_at + step;
             if g_new < self.g_of(ni) {
-                self.stamp[ni] = self.generation;
-                self.g[ni] = g_new;
-                self.parent[ni] = at as u32;
+                self.state[ni] = CellState {
+                    stamp: self.generation,
+                    closed: 0,
+                    g: g_new,
+                    parent: at as u32,
+                };
                 push(&mut self.heap, ni, g_new);
             }
         }
@@ -227,16 +246,19 @@ impl Search {
             let dy = (c.y - gc.y).unsigned_abs() as f32;
             res * (dx.max(dy) + (SQRT2 - 1.0) * dx.min(dy))
         };
-        self.stamp[start] = self.generation;
-        self.g[start] = 0.0;
-        self.parent[start] = start as u32;
+        self.state[start] = CellState {
+            stamp: self.generation,
+            closed: 0,
+            g: 0.0,
+            parent: start as u32,
+        };
         self.heap.push(Entry::new(heuristic(start), start));
         while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
-            if self.closed[at] == self.generation {
+            if self.state[at].closed == self.generation {
                 continue;
             }
-            self.closed[at] = self.generation;
+            self.state[at].closed = self.generation;
             if at == goal {
                 return Some(self.extract(grid, start, goal));
             }
@@ -251,7 +273,7 @@ impl Search {
         let mut cells = vec![grid.cell(goal)];
         let mut at = goal;
         while at != start {
-            at = self.parent[at] as usize;
+            at = self.state[at].parent as usize;
             cells.push(grid.cell(at));
         }
         cells.reverse();
@@ -270,20 +292,23 @@ impl Search {
         mut on_settle: impl FnMut(usize, f32) -> bool,
     ) {
         self.begin(grid);
-        self.stamp[source] = self.generation;
-        self.g[source] = 0.0;
-        self.parent[source] = source as u32;
+        self.state[source] = CellState {
+            stamp: self.generation,
+            closed: 0,
+            g: 0.0,
+            parent: source as u32,
+        };
         self.heap.push(Entry::new(0.0, source));
         while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
-            if self.closed[at] == self.generation {
+            if self.state[at].closed == self.generation {
                 continue;
             }
             if entry.priority() > max_cost {
                 break;
             }
-            self.closed[at] = self.generation;
-            if on_settle(at, self.g[at]) {
+            self.state[at].closed = self.generation;
+            if on_settle(at, self.state[at].g) {
                 break;
             }
             self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
@@ -303,9 +328,10 @@ impl Search {
         let mut cost = vec![f32::INFINITY; self.cells];
         let mut parent = vec![u32::MAX; self.cells];
         for i in 0..self.cells {
-            if self.closed[i] == self.generation {
-                cost[i] = self.g[i];
-                parent[i] = self.parent[i];
+            let s = &self.state[i];
+            if s.closed == self.generation {
+                cost[i] = s.g;
+                parent[i] = s.parent;
             }
         }
         DistanceField {
