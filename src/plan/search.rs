@@ -68,6 +68,7 @@ pub struct GridPath {
 }
 
 /// A reusable search workspace for one grid size.
+#[derive(Clone)]
 pub struct Search {
     cells: usize,
     generation: u32,
@@ -281,7 +282,7 @@ impl Search {
     }
 
     /// Dijkstra from `source` under `cost` (the source need not be enterable): settles cells in
-    /// order of cost, calling `on_settle(cell, cost)` for each, until `on_settle` answers `true`,
+    /// order of cost, calling `on_settle(cell, cost, parent)` for each, until it answers `true`,
     /// every remaining cell costs more than `max_cost`, or nothing is left.
     fn dijkstra(
         &mut self,
@@ -289,7 +290,7 @@ impl Search {
         cost: &impl Fn(usize) -> Option<f32>,
         source: usize,
         max_cost: f32,
-        mut on_settle: impl FnMut(usize, f32) -> bool,
+        mut on_settle: impl FnMut(usize, f32, u32) -> bool,
     ) {
         self.begin(grid);
         self.state[source] = CellState {
@@ -308,7 +309,8 @@ impl Search {
                 break;
             }
             self.state[at].closed = self.generation;
-            if on_settle(at, self.state[at].g) {
+            let s = self.state[at];
+            if on_settle(at, s.g, s.parent) {
                 break;
             }
             self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
@@ -324,16 +326,14 @@ impl Search {
         source: usize,
         max_cost: f32,
     ) -> DistanceField {
-        self.dijkstra(grid, &cost, source, max_cost, |_, _| false);
-        let mut cost = vec![f32::INFINITY; self.cells];
+        let mut costs = vec![f32::INFINITY; self.cells];
         let mut parent = vec![u32::MAX; self.cells];
-        for i in 0..self.cells {
-            let s = &self.state[i];
-            if s.closed == self.generation {
-                cost[i] = s.g;
-                parent[i] = s.parent;
-            }
-        }
+        self.dijkstra(grid, &cost, source, max_cost, |at, g, from| {
+            costs[at] = g;
+            parent[at] = from;
+            false
+        });
+        let cost = costs;
         DistanceField {
             source,
             cost,
@@ -363,7 +363,7 @@ impl Search {
         if left == 0 {
             return out;
         }
-        self.dijkstra(grid, &cost, source, max_cost, |at, g| {
+        self.dijkstra(grid, &cost, source, max_cost, |at, g, _| {
             for (k, &t) in targets.iter().enumerate() {
                 if t == at && out[k].is_none() {
                     out[k] = Some(g);

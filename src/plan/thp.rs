@@ -31,7 +31,7 @@
 //! path itself.
 
 use super::frontier_visit::{blind_zone_viewpoint, FrontierVisits, Visit};
-use super::search::DistanceField;
+use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
 use super::{Action, PlanContext, Planner};
 use crate::config::{Config, FieldConfig, Grouping, ThpConfig};
@@ -40,6 +40,7 @@ use crate::grid::GridSpec;
 use crate::map::Map;
 use crate::{Pose2, Result};
 use nalgebra::Point2;
+use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
@@ -147,6 +148,8 @@ pub struct Thp {
     tsp_ms: Option<f64>,
     /// Cached cost rows: source cell → (time computed, target cell → path cost).
     cost_rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
+    /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
+    row_searches: Vec<Search>,
     counters: BTreeMap<&'static str, f64>,
 }
 
@@ -171,6 +174,7 @@ impl Thp {
             benign_interrupt: false,
             tsp_ms: None,
             cost_rows: BTreeMap::new(),
+            row_searches: Vec::new(),
             counters: BTreeMap::new(),
         }
     }
@@ -402,13 +406,40 @@ impl Thp {
         if access.len() < 2 {
             return m;
         }
+        let mut missing: Vec<usize> = Vec::new();
         for &source in access {
-            if self.cost_rows.contains_key(&source) {
-                continue;
+            if !self.cost_rows.contains_key(&source) && !missing.contains(&source) {
+                missing.push(source);
             }
-            let row_costs =
-                ctx.search
-                    .costs_to_targets(&grid, |c| costs.get(c), source, access, f32::INFINITY);
+        }
+        // The missing rows are independent Dijkstras: spread over the thread pool, each worker with
+        // its own search workspace (the result does not depend on the thread count).
+        let workers = missing.len().min(rayon::current_num_threads()).max(1);
+        while self.row_searches.len() < workers {
+            self.row_searches.push(Search::new(&grid));
+        }
+        let rows: Vec<(usize, Vec<Option<f32>>)> = self.row_searches[..workers]
+            .par_iter_mut()
+            .enumerate()
+            .flat_map_iter(|(w, search)| {
+                missing
+                    .iter()
+                    .skip(w)
+                    .step_by(workers)
+                    .map(|&source| {
+                        let row = search.costs_to_targets(
+                            &grid,
+                            |c| costs.get(c),
+                            source,
+                            access,
+                            f32::INFINITY,
+                        );
+                        (source, row)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        for (source, row_costs) in rows {
             let row = access
                 .iter()
                 .zip(row_costs)
