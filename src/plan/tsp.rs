@@ -512,6 +512,15 @@ mod tests {
         })
     }
 
+    /// Instance number `inst` of a mixed series: Euclidean for even `inst`, asymmetric for odd.
+    fn mixed(n: usize, inst: usize, rng: &mut ChaCha8Rng) -> CostMatrix {
+        if inst % 2 == 0 {
+            euclidean(n, rng)
+        } else {
+            asymmetric(n, rng)
+        }
+    }
+
     fn asymmetric(n: usize, rng: &mut ChaCha8Rng) -> CostMatrix {
         CostMatrix::from_fn(n, |i, j| {
             if i == j {
@@ -614,11 +623,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         for n in 1..=9 {
             for inst in 0..30 {
-                let m = if inst % 2 == 0 {
-                    euclidean(n, &mut rng)
-                } else {
-                    asymmetric(n, &mut rng)
-                };
+                let m = mixed(n, inst, &mut rng);
                 let start = inst % n;
                 let bf = brute_force(&m, start);
                 let hk = held_karp(&m, start);
@@ -639,11 +644,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for n in 1..=9 {
             for inst in 0..30 {
-                let m = if inst % 2 == 0 {
-                    euclidean(n, &mut rng)
-                } else {
-                    asymmetric(n, &mut rng)
-                };
+                let m = mixed(n, inst, &mut rng);
                 let start = (3 * inst) % n;
                 let exact = held_karp(&m, start).cost;
                 let h = heuristic(&m, start);
