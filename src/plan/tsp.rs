@@ -514,7 +514,7 @@ mod tests {
 
     /// Instance number `inst` of a mixed series: Euclidean for even `inst`, asymmetric for odd.
     fn mixed(n: usize, inst: usize, rng: &mut ChaCha8Rng) -> CostMatrix {
-        if inst % 2 == 0 {
+        if inst.is_multiple_of(2) {
             euclidean(n, rng)
         } else {
             asymmetric(n, rng)
