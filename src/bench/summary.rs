@@ -395,6 +395,14 @@ mod tests {
         }
     }
 
+    /// (planner label, r_ε) of every cell.
+    fn ratios(s: &Summary) -> Vec<(&str, Option<f64>)> {
+        s.cells
+            .iter()
+            .map(|c| (c.planner.as_str(), c.r_epsilon))
+            .collect()
+    }
+
     #[test]
     fn tsp_time_per_planning_step_is_averaged_over_runs() {
         let with_tsp = |mean: f64, p50: f64, p95: f64| {
@@ -440,11 +448,7 @@ mod tests {
         ];
         let s = Summary::of(&rows, None);
         assert_eq!(s.reference.as_deref(), Some("thp"));
-        let r: Vec<_> = s
-            .cells
-            .iter()
-            .map(|c| (c.planner.as_str(), c.r_epsilon))
-            .collect();
+        let r = ratios(&s);
         assert_eq!(
             r,
             [("greedy", Some(0.5)), ("nbv", None), ("thp", Some(1.0))]
@@ -467,11 +471,7 @@ mod tests {
         ];
         let s = Summary::of(&rows, None);
         assert_eq!(s.reference.as_deref(), Some("greedy@aaaaaa"));
-        let r: Vec<_> = s
-            .cells
-            .iter()
-            .map(|c| (c.planner.as_str(), c.r_epsilon))
-            .collect();
+        let r = ratios(&s);
         assert_eq!(
             r,
             [("greedy@aaaaaa", Some(1.0)), ("greedy@bbbbbb", Some(1.5))]

@@ -179,6 +179,31 @@ impl Map {
     }
 }
 
+/// Test geometry: maps built by looking at a mesh.
+#[cfg(test)]
+pub mod testing {
+    use super::Map;
+    use crate::config::Config;
+    use crate::grid::GridSpec;
+    use crate::sensor::{DepthCamera, MeshBvh};
+    use crate::Pose2;
+
+    /// A map of `grid` from one depth frame taken at each of `poses` in the scene `bvh`.
+    pub fn seen_from(
+        grid: GridSpec,
+        cfg: &Config,
+        bvh: &MeshBvh,
+        poses: impl IntoIterator<Item = Pose2>,
+    ) -> Map {
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut map = Map::new(grid, cfg);
+        for pose in poses {
+            map.integrate(&cam.capture(bvh, pose));
+        }
+        map
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

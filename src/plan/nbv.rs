@@ -653,11 +653,11 @@ impl Planner for Nbv {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::map::testing::seen_from;
     use crate::map::Map;
     use crate::scene::TriMesh;
     use crate::sensor::raycast::testing::push_box;
     use crate::sensor::raycast::MeshBvh;
-    use crate::sensor::DepthCamera;
     use crate::util::wrap_angle;
     use crate::Pose2;
 
@@ -715,13 +715,16 @@ mod tests {
             push_box(&mut mesh, lo, hi);
         }
         let bvh = MeshBvh::new(&mesh).unwrap();
-        let cam = DepthCamera::new(&cfg.camera);
-        let mut map = Map::new(grid, &cfg);
-        for i in 0..64 {
-            let yaw = i as f64 * TAU / 32.0;
-            let r = if i < 32 { 0.0 } else { 1.0 };
-            map.integrate(&cam.capture(&bvh, Pose2::new(r * yaw.cos(), r * yaw.sin(), yaw)));
-        }
+        let map = seen_from(
+            grid,
+            &cfg,
+            &bvh,
+            (0..64).map(|i| {
+                let yaw = i as f64 * TAU / 32.0;
+                let r = if i < 32 { 0.0 } else { 1.0 };
+                Pose2::new(r * yaw.cos(), r * yaw.sin(), yaw)
+            }),
+        );
         let closed = model.evaluate(&map, Point2::new(0.0, 0.0));
         assert!(
             closed.volume_m3 < 0.1 * g.volume_m3,
@@ -741,11 +744,7 @@ mod tests {
         push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
         push_box(&mut mesh, [1.5, -4.0, 0.0], [1.6, 4.0, 2.5]);
         let bvh = MeshBvh::new(&mesh).unwrap();
-        let cam = DepthCamera::new(&cfg.camera);
-        let mut map = Map::new(grid, &cfg);
-        for _ in 0..3 {
-            map.integrate(&cam.capture(&bvh, Pose2::new(0.0, 0.0, 0.0)));
-        }
+        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(0.0, 0.0, 0.0); 3]);
         let model = GainModel::new(&cfg);
         let g = model.evaluate(&map, Point2::new(0.0, 0.0));
         let half_fov = 0.5 * cfg.camera.hfov_deg.to_radians();
@@ -777,11 +776,7 @@ mod tests {
         push_box(&mut mesh, [-1.0, -3.0, -0.1], [7.0, 3.0, 0.0]);
         push_box(&mut mesh, [3.0, -3.0, 0.0], [3.1, 0.0, 2.0]);
         let bvh = MeshBvh::new(&mesh).unwrap();
-        let cam = DepthCamera::new(&cfg.camera);
-        let mut map = Map::new(grid, &cfg);
-        for _ in 0..3 {
-            map.integrate(&cam.capture(&bvh, Pose2::new(0.5, 0.0, 0.0)));
-        }
+        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(0.5, 0.0, 0.0); 3]);
         let idx = |x: f64, y: f64| grid.index(grid.cell_at(x, y));
         assert!(map.is_obstacle(idx(3.05, -0.5)));
         assert!(!line_of_sight(&map, &grid, idx(2.5, -0.5), idx(3.5, -0.5)));

@@ -348,10 +348,11 @@ pub fn nearest_obstacle(map: &Map, p: Point2<f64>, max_m: f64) -> Option<Point2<
 mod tests {
     use super::*;
     use crate::grid::GridSpec;
+    use crate::map::testing::seen_from;
     use crate::plan::search::Search;
     use crate::scene::TriMesh;
     use crate::sensor::raycast::testing::push_box;
-    use crate::sensor::{DepthCamera, MeshBvh};
+    use crate::sensor::MeshBvh;
     use std::f64::consts::PI;
 
     /// A room (y < 1.9) and a 0.8 m corridor along its top (y 2.0–2.8), joined by a 0.8 m door
@@ -368,8 +369,6 @@ mod tests {
             cfg.map.band_max_m,
             cfg.map.voxel_m,
         );
-        let mut map = Map::new(grid, cfg);
-        let cam = DepthCamera::new(&cfg.camera);
         let spots = [
             (1.1, 1.0),
             (3.0, 1.0),
@@ -378,10 +377,11 @@ mod tests {
             (4.0, 2.4),
             (5.5, 2.4),
         ];
+        let looks = spots
+            .iter()
+            .flat_map(|&(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
+        let mut map = seen_from(grid, cfg, &bvh, looks);
         for (x, y) in spots {
-            for k in 0..16 {
-                map.integrate(&cam.capture(&bvh, Pose2::new(x, y, k as f64 * PI / 8.0)));
-            }
             map.clear_footprint(x, y, cfg.robot.radius_m);
         }
         (map, bvh)
