@@ -64,15 +64,31 @@ pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize)
 
 /// [`step_cost`] of every cell, for a planning step that runs several searches from one robot
 /// position: one evaluation per cell instead of one per neighbour visit of every search.
+#[derive(Clone, Default)]
 pub struct StepCosts(Vec<f32>);
 
 impl StepCosts {
     pub fn new(map: &Map, cfg: &SearchConfig, robot: Point2<f64>) -> Self {
-        StepCosts(
-            (0..map.grid().cells())
-                .map(|i| step_cost(map, cfg, robot, i).unwrap_or(f32::INFINITY))
-                .collect(),
-        )
+        let mut costs = StepCosts::default();
+        costs.refill(map, cfg, robot);
+        costs
+    }
+
+    /// Re-evaluates every cell for a new map and robot position, reusing the buffer. Rows of cells
+    /// are evaluated in parallel; each cell's value does not depend on the split.
+    pub fn refill(&mut self, map: &Map, cfg: &SearchConfig, robot: Point2<f64>) {
+        use rayon::prelude::*;
+        let nx = map.grid().nx;
+        self.0.resize(map.grid().cells(), f32::INFINITY);
+        self.0
+            .par_chunks_mut(nx * STEP_COST_ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let first = chunk * nx * STEP_COST_ROWS_PER_TASK;
+                for (k, c) in out.iter_mut().enumerate() {
+                    *c = step_cost(map, cfg, robot, first + k).unwrap_or(f32::INFINITY);
+                }
+            });
     }
 
     /// The cost of entering `cell`, as [`step_cost`] gives it.
@@ -81,6 +97,10 @@ impl StepCosts {
         c.is_finite().then_some(c)
     }
 }
+
+/// Grid rows per parallel task of [`StepCosts::refill`]: large enough that a task outweighs its
+/// scheduling.
+const STEP_COST_ROWS_PER_TASK: usize = 32;
 
 /// The cell searches start from: the robot's own cell, unless the robot stands where no neighbour
 /// may be entered (pushed into an obstacle's inflation band, e.g. in a door barely wider than the

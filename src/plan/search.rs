@@ -10,7 +10,7 @@
 //! Diagonal moves are allowed only when both orthogonal neighbours are passable, so paths never cut
 //! the corner of a blocked cell.
 
-use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{Cell, GridSpec};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -50,14 +50,13 @@ impl PartialOrd for Entry {
     }
 }
 
-/// The search state of one cell: valid for the query whose generation is `stamp`; settled when
-/// `closed` equals it too.
+/// The search state of one cell, 8 bytes so that the neighbour checks of a search stay in cache.
+/// Generations are even: `stamp` equals the query's generation once the cell is reached (and `g`
+/// is valid), and the generation + 1 once it is settled.
 #[derive(Clone, Copy)]
 struct CellState {
     stamp: u32,
-    closed: u32,
     g: f32,
-    parent: u32,
 }
 
 /// A found path: the cells from start to goal, and its length in metres.
@@ -72,15 +71,18 @@ pub struct GridPath {
 pub struct Search {
     cells: usize,
     generation: u32,
-    /// Per-cell search state, one 16-byte record per cell so a relaxation touches one cache line.
+    /// Per-cell search state.
     state: Vec<CellState>,
+    /// Per-cell parent on the best path found (valid where the state is reached); apart from the
+    /// state because only improvements write it.
+    parent: Vec<u32>,
     heap: BinaryHeap<Entry>,
     /// Number of A* queries answered, for reports.
     pub astar_calls: u64,
 }
 
 /// Least costs from one source to every cell, with parents for path extraction.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct DistanceField {
     pub source: usize,
     /// Least path cost from the source (metres weighted by the cost multipliers);
@@ -138,12 +140,11 @@ impl Search {
             state: vec![
                 CellState {
                     stamp: 0,
-                    closed: 0,
                     g: f32::INFINITY,
-                    parent: u32::MAX,
                 };
                 n
             ],
+            parent: vec![u32::MAX; n],
             heap: BinaryHeap::new(),
             astar_calls: 0,
         }
@@ -156,27 +157,42 @@ impl Search {
             "search workspace built for another grid"
         );
         self.heap.clear();
-        self.generation = self.generation.wrapping_add(1);
+        self.generation = self.generation.wrapping_add(2);
         if self.generation == 0 {
             // Wrapped: stale stamps could alias the new generation.
             for s in &mut self.state {
                 s.stamp = 0;
-                s.closed = 0;
             }
-            self.generation = 1;
+            self.generation = 2;
         }
     }
 
-    fn g_of(&self, i: usize) -> f32 {
-        let s = &self.state[i];
-        if s.stamp == self.generation {
-            s.g
-        } else {
-            f32::INFINITY
+    /// Marks `cell` reached at cost `g` from `parent`.
+    fn reach(&mut self, cell: usize, g: f32, parent: usize) {
+        self.state[cell] = CellState {
+            stamp: self.generation,
+            g,
+        };
+        self.parent[cell] = parent as u32;
+    }
+
+    /// Marks `cell` settled; false if it already was (a stale heap entry).
+    fn settle(&mut self, cell: usize) -> bool {
+        let settled = self.generation + 1;
+        let s = &mut self.state[cell];
+        if s.stamp == settled {
+            return false;
         }
+        s.stamp = settled;
+        true
     }
 
     /// Relaxes the neighbours of `at`; `push` receives each improved neighbour and its new g.
+    ///
+    /// Neighbours are found by index offsets: only the four orthogonal ones need a bounds check,
+    /// because a diagonal is entered only when both orthogonal neighbours beside it are open (no
+    /// corner cutting), which also keeps it on the grid. The order of relaxation does not matter:
+    /// each neighbour is a different cell and the heap orders entries by (priority, cell).
     fn expand(
         &mut self,
         grid: &GridSpec,
@@ -184,45 +200,59 @@ impl Search {
         at: usize,
         mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
-        let c = grid.cell(at);
+        let nx = grid.nx;
+        let (x, y) = (at % nx, at / nx);
         let g_at = self.state[at].g;
-        let res = grid.res as f32;
-        let mut open4 = [false; 4];
-        for (k, &(dx, dy)) in NEIGHBOURS_8.iter().enumerate() {
-            let n = Cell::new(c.x + dx, c.y + dy);
-            let Some(ni) = grid.checked_index(n) else {
-                continue;
-            };
-            let multiplier = cost(ni);
-            let ok = multiplier.is_some();
-            if k < 4 {
-                open4[k] = ok;
-            } else {
-                // Diagonal: both orthogonal neighbours must be open (no corner cutting).
-                let ox = if dx > 0 { 0 } else { 1 };
-                let oy = if dy > 0 { 2 } else { 3 };
-                if !(open4[ox] && open4[oy]) {
-                    continue;
-                }
-            }
-            let Some(multiplier) = multiplier else {
-                continue;
-            };
-            if self.state[ni].closed == self.generation {
+        let straight = grid.res as f32;
+        let diagonal = straight * SQRT2;
+        // +x, −x, +y, −y (the first four of `NEIGHBOURS_8`): the cell, if it is on the grid and may
+        // be entered.
+        let mut ortho = [usize::MAX; 4];
+        for (k, (inside, ni)) in [
+            (x + 1 < nx, at + 1),
+            (x > 0, at.wrapping_sub(1)),
+            (y + 1 < grid.ny, at + nx),
+            (y > 0, at.wrapping_sub(nx)),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if !inside {
                 continue;
             }
-            let step = multiplier * if k < 4 { res } else { res * SQRT2 };
-            let g_new = g_at + step;
-            if g_new < self.g_of(ni) {
-                self.state[ni] = CellState {
-                    stamp: self.generation,
-                    closed: 0,
-                    g: g_new,
-                    parent: at as u32,
-                };
-                push(&mut self.heap, ni, g_new);
+            if let Some(m) = cost(ni) {
+                ortho[k] = ni;
+                self.relax(at, ni, g_at + m * straight, &mut push);
             }
         }
+        for (a, b) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+            let (na, nb) = (ortho[a], ortho[b]);
+            if na == usize::MAX || nb == usize::MAX {
+                continue;
+            }
+            let ni = na + nb - at;
+            if let Some(m) = cost(ni) {
+                self.relax(at, ni, g_at + m * diagonal, &mut push);
+            }
+        }
+    }
+
+    /// Lowers the g of `ni` (reached from `at`) to `g_new` if that improves it and `ni` is not
+    /// settled yet.
+    #[inline]
+    fn relax(
+        &mut self,
+        at: usize,
+        ni: usize,
+        g_new: f32,
+        push: &mut impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
+    ) {
+        let s = self.state[ni];
+        if s.stamp == self.generation + 1 || (s.stamp == self.generation && g_new >= s.g) {
+            return;
+        }
+        self.reach(ni, g_new, at);
+        push(&mut self.heap, ni, g_new);
     }
 
     /// Least-cost 8-connected path from `start` to `goal` under `cost` (see the module doc).
@@ -247,19 +277,13 @@ impl Search {
             let dy = (c.y - gc.y).unsigned_abs() as f32;
             res * (dx.max(dy) + (SQRT2 - 1.0) * dx.min(dy))
         };
-        self.state[start] = CellState {
-            stamp: self.generation,
-            closed: 0,
-            g: 0.0,
-            parent: start as u32,
-        };
+        self.reach(start, 0.0, start);
         self.heap.push(Entry::new(heuristic(start), start));
         while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
-            if self.state[at].closed == self.generation {
+            if !self.settle(at) {
                 continue;
             }
-            self.state[at].closed = self.generation;
             if at == goal {
                 return Some(self.extract(grid, start, goal));
             }
@@ -274,7 +298,7 @@ impl Search {
         let mut cells = vec![grid.cell(goal)];
         let mut at = goal;
         while at != start {
-            at = self.state[at].parent as usize;
+            at = self.parent[at] as usize;
             cells.push(grid.cell(at));
         }
         cells.reverse();
@@ -293,24 +317,18 @@ impl Search {
         mut on_settle: impl FnMut(usize, f32, u32) -> bool,
     ) {
         self.begin(grid);
-        self.state[source] = CellState {
-            stamp: self.generation,
-            closed: 0,
-            g: 0.0,
-            parent: source as u32,
-        };
+        self.reach(source, 0.0, source);
         self.heap.push(Entry::new(0.0, source));
         while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
-            if self.state[at].closed == self.generation {
+            if self.state[at].stamp == self.generation + 1 {
                 continue;
             }
             if entry.priority() > max_cost {
                 break;
             }
-            self.state[at].closed = self.generation;
-            let s = self.state[at];
-            if on_settle(at, s.g, s.parent) {
+            self.settle(at);
+            if on_settle(at, self.state[at].g, self.parent[at]) {
                 break;
             }
             self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
@@ -326,19 +344,33 @@ impl Search {
         source: usize,
         max_cost: f32,
     ) -> DistanceField {
-        let mut costs = vec![f32::INFINITY; self.cells];
-        let mut parent = vec![u32::MAX; self.cells];
+        let mut out = DistanceField::default();
+        self.distance_field_into(grid, cost, source, max_cost, &mut out);
+        out
+    }
+
+    /// [`Search::distance_field`] written into `out`, reusing its buffers: a planner that floods the
+    /// map at every planning step keeps one field and saves two grid-sized allocations (and the
+    /// page faults of touching fresh memory) per step.
+    pub fn distance_field_into(
+        &mut self,
+        grid: &GridSpec,
+        cost: impl Fn(usize) -> Option<f32>,
+        source: usize,
+        max_cost: f32,
+        out: &mut DistanceField,
+    ) {
+        out.source = source;
+        out.cost.clear();
+        out.cost.resize(self.cells, f32::INFINITY);
+        out.parent.clear();
+        out.parent.resize(self.cells, u32::MAX);
+        let (costs, parent) = (&mut out.cost, &mut out.parent);
         self.dijkstra(grid, &cost, source, max_cost, |at, g, from| {
             costs[at] = g;
             parent[at] = from;
             false
         });
-        let cost = costs;
-        DistanceField {
-            source,
-            cost,
-            parent,
-        }
     }
 }
 
@@ -363,7 +395,15 @@ impl Search {
         if left == 0 {
             return out;
         }
+        // One bit per cell marks the targets, so a settled cell that is none costs one lookup.
+        let mut is_target = vec![0u64; self.cells.div_ceil(64)];
+        for &t in targets {
+            is_target[t / 64] |= 1 << (t % 64);
+        }
         self.dijkstra(grid, &cost, source, max_cost, |at, g, _| {
+            if is_target[at / 64] & (1 << (at % 64)) == 0 {
+                return false;
+            }
             for (k, &t) in targets.iter().enumerate() {
                 if t == at && out[k].is_none() {
                     out[k] = Some(g);

@@ -146,6 +146,9 @@ pub struct Thp {
     /// The action was abandoned for a reason that is not a failed attempt (new anchors).
     benign_interrupt: bool,
     tsp_ms: Option<f64>,
+    /// Buffers of the planning step's cell costs and the robot's distance field, kept between steps.
+    step_costs: super::StepCosts,
+    flood: DistanceField,
     /// Cached cost rows: source cell → (time computed, target cell → path cost).
     cost_rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
     /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
@@ -173,6 +176,8 @@ impl Thp {
             goal: None,
             benign_interrupt: false,
             tsp_ms: None,
+            step_costs: super::StepCosts::default(),
+            flood: DistanceField::default(),
             cost_rows: BTreeMap::new(),
             row_searches: Vec::new(),
             counters: BTreeMap::new(),
@@ -470,12 +475,31 @@ impl Thp {
         else {
             return Ok(Some(Action::LookAround));
         };
+        // The step costs and the robot's distance field live in buffers kept between steps.
+        let mut costs = std::mem::take(&mut self.step_costs);
+        costs.refill(ctx.map, &ctx.cfg.search, robot);
+        let mut df = std::mem::take(&mut self.flood);
+        ctx.search
+            .distance_field_into(&grid, |i| costs.get(i), start, f32::INFINITY, &mut df);
+        let action = self.choose_goal_from(ctx, start, &costs, &df);
+        self.step_costs = costs;
+        self.flood = df;
+        action
+    }
+
+    /// [`Thp::choose_goal`] once the step costs and the robot's distance field (from `start`) are
+    /// known.
+    fn choose_goal_from(
+        &mut self,
+        ctx: &mut PlanContext,
+        start: usize,
+        costs: &super::StepCosts,
+        df: &DistanceField,
+    ) -> Result<Option<Action>> {
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
         let map = ctx.map;
-        let costs = super::StepCosts::new(map, &ctx.cfg.search, robot);
-        let df = ctx
-            .search
-            .distance_field(&grid, |i| costs.get(i), start, f32::INFINITY);
-        let (fronts, near, segment_cells) = self.frontiers(map, &df, robot);
+        let (fronts, near, segment_cells) = self.frontiers(map, df, robot);
         let nodes = match self.cfg.grouping {
             Grouping::Anchors => self.group_by_anchors(&fronts, robot),
             Grouping::None => fronts
@@ -507,7 +531,7 @@ impl Thp {
                 if !open_frontiers.is_empty() {
                     // Frontiers are left but none is reachable: trapped in a pocket?
                     if let Some(path) =
-                        super::escape_path(ctx, start, &df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
+                        super::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
                     {
                         self.count("escapes", 1.0);
                         self.goal = None;
@@ -520,8 +544,7 @@ impl Thp {
                 return Ok(Some(Action::Complete));
             };
             let visit = f.visit(&grid, &segment_cells, true);
-            let Some(v) =
-                blind_zone_viewpoint(map, &df, grid.center(grid.cell(f.aim)), self.view_m)
+            let Some(v) = blind_zone_viewpoint(map, df, grid.center(grid.cell(f.aim)), self.view_m)
             else {
                 self.goal = Some(Goal {
                     visit,
@@ -545,7 +568,7 @@ impl Thp {
             Grouping::None | Grouping::Kmeans => true,
         };
         if resolve {
-            self.solve_tour(ctx, &costs, &df, &nodes, &fronts);
+            self.solve_tour(ctx, costs, df, &nodes, &fronts);
         } else {
             // Follow the tour: drop visited anchors, keep the order.
             let keep: Vec<(usize, Point2<f64>)> = self
