@@ -14,6 +14,7 @@ pub mod tsp;
 
 use crate::config::{Config, SearchConfig};
 use crate::field::TensorField;
+use crate::grid::Cell;
 use crate::map::Map;
 use crate::{Pose2, Result};
 use nalgebra::Point2;
@@ -46,13 +47,24 @@ impl PlanContext<'_> {
 /// lies within `near_unknown_radius_m` of the robot (the camera's blind zone around its own wheels).
 /// Entering costs 1 per metre, plus `proximity_cost` near a known obstacle.
 pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize) -> Option<f32> {
+    let grid = map.grid();
+    cost_rule(map, cfg, cell, || {
+        near_robot(cfg, robot, grid.center(grid.cell(cell)))
+    })
+}
+
+/// [`step_cost`] given whether the cell lies near the robot (asked only when it matters).
+#[inline]
+fn cost_rule(
+    map: &Map,
+    cfg: &SearchConfig,
+    cell: usize,
+    near_robot: impl FnOnce() -> bool,
+) -> Option<f32> {
     let enterable = map.is_traversable(cell)
-        || (map.is_unknown(cell) && !map.is_inflated(cell) && {
-            let grid = map.grid();
-            cfg.unknown_is_free
-                || (grid.center(grid.cell(cell)) - robot).norm_squared()
-                    <= cfg.near_unknown_radius_m * cfg.near_unknown_radius_m
-        });
+        || (map.is_unknown(cell)
+            && !map.is_inflated(cell)
+            && (cfg.unknown_is_free || near_robot()));
     enterable.then(|| {
         if map.is_near_obstacle(cell) {
             1.0 + cfg.proximity_cost as f32
@@ -60,6 +72,12 @@ pub fn step_cost(map: &Map, cfg: &SearchConfig, robot: Point2<f64>, cell: usize)
             1.0
         }
     })
+}
+
+/// Whether `p` lies within `near_unknown_radius_m` of the robot.
+#[inline]
+fn near_robot(cfg: &SearchConfig, robot: Point2<f64>, p: Point2<f64>) -> bool {
+    (p - robot).norm_squared() <= cfg.near_unknown_radius_m * cfg.near_unknown_radius_m
 }
 
 /// [`step_cost`] of every cell, for a planning step that runs several searches from one robot
@@ -74,21 +92,21 @@ impl StepCosts {
         costs
     }
 
-    /// Re-evaluates every cell for a new map and robot position, reusing the buffer. Rows of cells
-    /// are evaluated in parallel; each cell's value does not depend on the split.
+    /// Re-evaluates every cell for a new map and robot position, reusing the buffer. Walks the grid
+    /// row by row, so a cell's centre comes without an index division.
     pub fn refill(&mut self, map: &Map, cfg: &SearchConfig, robot: Point2<f64>) {
-        use rayon::prelude::*;
-        let nx = map.grid().nx;
-        self.0.resize(map.grid().cells(), f32::INFINITY);
-        self.0
-            .par_chunks_mut(nx * STEP_COST_ROWS_PER_TASK)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                let first = chunk * nx * STEP_COST_ROWS_PER_TASK;
-                for (k, c) in out.iter_mut().enumerate() {
-                    *c = step_cost(map, cfg, robot, first + k).unwrap_or(f32::INFINITY);
-                }
-            });
+        let grid = map.grid();
+        self.0.clear();
+        self.0.reserve(grid.cells());
+        for y in 0..grid.ny {
+            for x in 0..grid.nx {
+                let cell = y * grid.nx + x;
+                let cost = cost_rule(map, cfg, cell, || {
+                    near_robot(cfg, robot, grid.center(Cell::new(x as i32, y as i32)))
+                });
+                self.0.push(cost.unwrap_or(f32::INFINITY));
+            }
+        }
     }
 
     /// The cost of entering `cell`, as [`step_cost`] gives it.
@@ -97,10 +115,6 @@ impl StepCosts {
         c.is_finite().then_some(c)
     }
 }
-
-/// Grid rows per parallel task of [`StepCosts::refill`]: large enough that a task outweighs its
-/// scheduling.
-const STEP_COST_ROWS_PER_TASK: usize = 32;
 
 /// The cell searches start from: the robot's own cell, unless the robot stands where no neighbour
 /// may be entered (pushed into an obstacle's inflation band, e.g. in a door barely wider than the
@@ -114,13 +128,13 @@ pub fn search_source(
 ) -> Option<usize> {
     let grid = map.grid();
     let here = grid.cell_of(robot)?;
-    let open = |c: crate::grid::Cell| {
+    let open = |c: Cell| {
         grid.checked_index(c)
             .is_some_and(|i| step_cost(map, cfg, robot, i).is_some())
     };
     if crate::grid::NEIGHBOURS_8
         .iter()
-        .any(|&(dx, dy)| open(crate::grid::Cell::new(here.x + dx, here.y + dy)))
+        .any(|&(dx, dy)| open(Cell::new(here.x + dx, here.y + dy)))
     {
         return Some(grid.index(here));
     }
@@ -128,7 +142,7 @@ pub fn search_source(
     let mut best: Option<(f64, usize)> = None;
     for dy in -reach..=reach {
         for dx in -reach..=reach {
-            let c = crate::grid::Cell::new(here.x + dx, here.y + dy);
+            let c = Cell::new(here.x + dx, here.y + dy);
             if !open(c) {
                 continue;
             }
