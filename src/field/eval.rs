@@ -419,7 +419,7 @@ impl FieldLevel {
     /// Marks the tiles a change of constraint `c` can alter: those whose last `reach` contains it,
     /// or for a limited constraint those with a cell within its radius.
     fn mark(&mut self, c: &Constraint) {
-        for tile in 0..self.reach.len() {
+        for tile in self.tiles_near(c) {
             if !self.dirty[tile] {
                 let (centre, t) = self.tile_center_and_half(tile);
                 let reach = if c.radius.is_finite() {
@@ -432,6 +432,29 @@ impl FieldLevel {
                 }
             }
         }
+    }
+
+    /// The tiles [`FieldLevel::mark`] must test for `c`: all of them for an unlimited constraint,
+    /// and for a limited one only those whose extent comes within a tile's half-diagonal plus its
+    /// radius (a path constraint reaches a few tiles, and a path lays dozens of them per step).
+    fn tiles_near(&self, c: &Constraint) -> impl Iterator<Item = usize> {
+        let s = &self.grid.spec;
+        let tiles_y = self.reach.len() / self.tiles_x;
+        let (mut x_range, mut y_range) = (0..=self.tiles_x - 1, 0..=tiles_y - 1);
+        if c.radius.is_finite() {
+            let span = TILE as f64 * s.res;
+            let reach = span * std::f64::consts::SQRT_2 + c.radius;
+            // One tile of slack on each side covers rounding at the tile borders.
+            let range = |v: f64, origin: f64, n: usize| {
+                let lo = ((v - reach - origin) / span).floor() - 1.0;
+                let hi = ((v + reach - origin) / span).floor() + 1.0;
+                (lo.max(0.0) as usize)..=(hi.clamp(0.0, (n - 1) as f64) as usize)
+            };
+            x_range = range(c.pos.x, s.origin_x, self.tiles_x);
+            y_range = range(c.pos.y, s.origin_y, tiles_y);
+        }
+        let tiles_x = self.tiles_x;
+        y_range.flat_map(move |ty| x_range.clone().map(move |tx| ty * tiles_x + tx))
     }
 
     /// Adds a constraint (the field is updated by the next [`FieldLevel::refresh`]).
