@@ -289,3 +289,55 @@ impl PlannerKind {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridSpec;
+    use crate::map::testing::seen_from;
+    use crate::scene::TriMesh;
+    use crate::sensor::raycast::testing::push_box;
+    use crate::sensor::raycast::MeshBvh;
+
+    /// The per-step table of costs agrees with the cost rule cell by cell, for pessimistic and
+    /// optimistic searches, on a map that holds every kind of cell.
+    #[test]
+    fn step_costs_agree_with_the_cost_rule() {
+        let mut cfg = Config::default();
+        let grid = GridSpec::covering(
+            Point2::new(-4.0, -4.0),
+            Point2::new(4.0, 4.0),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
+        push_box(&mut mesh, [2.0, -0.5, 0.0], [2.5, 0.5, 1.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let robot = Point2::new(0.0, 0.0);
+        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(robot.x, robot.y, 0.0)]);
+        for unknown_is_free in [false, true] {
+            cfg.search.unknown_is_free = unknown_is_free;
+            let table = StepCosts::new(&map, &cfg.search, robot);
+            let mut kinds = BTreeMap::new();
+            let mut unknown_enterable = [0, 0];
+            for cell in 0..grid.cells() {
+                let expected = step_cost(&map, &cfg.search, robot, cell);
+                assert_eq!(table.get(cell), expected, "cell {cell}");
+                *kinds.entry(format!("{expected:?}")).or_insert(0) += 1;
+                if map.is_unknown(cell) && !map.is_inflated(cell) {
+                    unknown_enterable[usize::from(expected.is_some())] += 1;
+                }
+            }
+            // Blocked, plain and near-obstacle cells all occur; pessimistic searches enter unknown
+            // cells (clear of inflation) only in the blind zone around the robot.
+            assert_eq!(kinds.len(), 3, "{kinds:?}");
+            assert!(unknown_enterable[1] > 0, "{unknown_enterable:?}");
+            assert_eq!(
+                unknown_enterable[0] > 0,
+                !unknown_is_free,
+                "{unknown_enterable:?}"
+            );
+        }
+    }
+}

@@ -535,6 +535,35 @@ mod tests {
         }
     }
 
+    /// A workspace reused many times (and across the wrap of its generation counter), and a distance
+    /// field whose buffers are reused, answer as fresh ones do.
+    #[test]
+    fn reused_workspaces_answer_as_fresh_ones() {
+        let g = grid(25);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let blocked: Vec<bool> = (0..g.cells()).map(|_| rng.random::<f64>() < 0.3).collect();
+        let cost = |i: usize| (!blocked[i]).then_some(1.0 + (i % 3) as f32);
+        let open: Vec<usize> = (0..g.cells()).filter(|&i| !blocked[i]).collect();
+        let mut reused = Search::new(&g);
+        // Three queries before the counter wraps.
+        reused.generation = u32::MAX - 5;
+        let mut field = DistanceField::default();
+        for k in 0..8 {
+            let src = open[k * 37 % open.len()];
+            reused.distance_field_into(&g, cost, src, f32::INFINITY, &mut field);
+            let fresh = Search::new(&g).distance_field(&g, cost, src, f32::INFINITY);
+            assert_eq!(field.source, fresh.source);
+            assert_eq!(field.cost, fresh.cost);
+            assert_eq!(field.parent, fresh.parent);
+            let t = open[(k * 53 + 7) % open.len()];
+            assert_eq!(
+                reused.astar(&g, cost, src, t),
+                Search::new(&g).astar(&g, cost, src, t)
+            );
+        }
+        assert!(reused.generation < 100, "the counter wrapped");
+    }
+
     #[test]
     fn distance_field_respects_limit() {
         let g = grid(40);
