@@ -205,8 +205,8 @@ impl Search {
         let g_at = self.state[at].g;
         let straight = grid.res as f32;
         let diagonal = straight * SQRT2;
-        // +x, −x, +y, −y (the first four of `NEIGHBOURS_8`): the cell, if it is on the grid and may
-        // be entered.
+        // +x, −x, +y, −y (the first four of `NEIGHBOURS_8`): the cell if it is on the grid and may
+        // be entered, `usize::MAX` otherwise.
         let mut ortho = [usize::MAX; 4];
         for (k, (inside, ni)) in [
             (x + 1 < nx, at + 1),
@@ -320,14 +320,14 @@ impl Search {
         self.reach(source, 0.0, source);
         self.heap.push(Entry::new(0.0, source));
         while let Some(entry) = self.heap.pop() {
-            let at = entry.cell();
-            if self.state[at].stamp == self.generation + 1 {
-                continue;
-            }
+            // Every entry left is at least as costly, stale or not.
             if entry.priority() > max_cost {
                 break;
             }
-            self.settle(at);
+            let at = entry.cell();
+            if !self.settle(at) {
+                continue;
+            }
             if on_settle(at, self.state[at].g, self.parent[at]) {
                 break;
             }
