@@ -31,9 +31,14 @@ pub struct Constraint {
 }
 
 impl Constraint {
+    /// Whether the constraint has a finite radius of influence (a THP path constraint).
+    pub fn is_limited(&self) -> bool {
+        self.radius.is_finite()
+    }
+
     /// Whether the constraint counts at `p` (within its radius of influence).
     pub fn counts_at(&self, p: Point2<f64>) -> bool {
-        self.radius == f64::INFINITY || (p - self.pos).norm_squared() <= self.radius * self.radius
+        !self.is_limited() || (p - self.pos).norm_squared() <= self.radius * self.radius
     }
 
     /// A constraint whose major eigenvector is along `dir`, with strength `strength`.

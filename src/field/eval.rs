@@ -235,7 +235,7 @@ impl ConstraintStore {
 
     /// Adds a constraint; returns its id.
     pub fn insert(&mut self, c: Constraint) -> u32 {
-        if c.radius.is_finite() {
+        if c.is_limited() {
             self.max_radius = self.max_radius.max(c.radius);
         }
         let id = match self.free.pop() {
@@ -303,7 +303,7 @@ impl ConstraintStore {
                     }
                     for &id in &self.bins[(y * self.bx + x) as usize] {
                         let c = self.slots[id as usize].as_ref().expect("live");
-                        if c.radius == f64::INFINITY {
+                        if !c.is_limited() {
                             best = best.min((p - c.pos).norm_squared());
                         }
                     }
@@ -422,7 +422,7 @@ impl FieldLevel {
         for tile in self.tiles_near(c) {
             if !self.dirty[tile] {
                 let (centre, t) = self.tile_center_and_half(tile);
-                let reach = if c.radius.is_finite() {
+                let reach = if c.is_limited() {
                     t + c.radius
                 } else {
                     self.reach[tile]
@@ -441,7 +441,7 @@ impl FieldLevel {
         let s = &self.grid.spec;
         let tiles_y = self.reach.len() / self.tiles_x;
         let (mut x_range, mut y_range) = (0..=self.tiles_x - 1, 0..=tiles_y - 1);
-        if c.radius.is_finite() {
+        if c.is_limited() {
             let span = TILE as f64 * s.res;
             let reach = span * std::f64::consts::SQRT_2 + c.radius;
             // One tile of slack on each side covers rounding at the tile borders.
@@ -525,13 +525,9 @@ impl FieldLevel {
             t + self.store.max_radius
         };
         self.store.within(center, gather, cands);
-        let limited: Vec<Constraint> = cands
-            .iter()
-            .filter(|c| c.radius.is_finite())
-            .copied()
-            .collect();
+        let limited: Vec<Constraint> = cands.iter().filter(|c| c.is_limited()).copied().collect();
         let reach2 = reach * reach;
-        cands.retain(|c| c.radius == f64::INFINITY && (c.pos - center).norm_squared() <= reach2);
+        cands.retain(|c| !c.is_limited() && (c.pos - center).norm_squared() <= reach2);
         // d_min² per cell: the nearest unlimited constraint (all within `D0 + 2t` of the centre) and
         // the limited ones that count there.
         let near_r2 = d0.map_or(0.0, |d0| (d0 + 2.0 * t).powi(2) + 1e-9);

@@ -859,7 +859,6 @@ fn on_floor(map: &Map, grid: &GridSpec, p: Point2<f64>) -> bool {
         .is_some_and(|c| map.is_traversable(grid.index(c)))
 }
 
-/// Least path cost of a node's members from the robot.
 /// Path cost from the robot to a node's anchor (its position): from the robot's distance field where
 /// the anchor's cell is reachable, else through its nearest member (member cost plus the straight
 /// distance on to the anchor), as a frontier anchor's centroid may fall off the known floor.
