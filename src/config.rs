@@ -29,6 +29,25 @@ pub struct Config {
     pub tensor: TensorConfig,
     pub nbv: NbvConfig,
     pub log: LogConfig,
+    pub metrics: MetricsConfig,
+}
+
+/// How the ground truth of what can be observed is sampled (see `sim::observable`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsConfig {
+    pub observable_spacing_m: f64,
+    pub observable_yaws: usize,
+}
+
+/// Where a run starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpawnMode {
+    /// The scene's own spawn (or `--spawn X,Y[,YAW]`).
+    Scene,
+    /// A pose drawn from the run's seed over the reachable region of the scene's spawn.
+    Random,
 }
 
 /// What `explore --log` writes and how often (see `src/log`).
@@ -51,6 +70,8 @@ pub struct SimConfig {
     pub stuck_min_gain_m3: f64,
     pub curve_interval_s: f64,
     pub initial_look_around: bool,
+    pub spawn: SpawnMode,
+    pub random_spawn_margin_m: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -394,6 +415,23 @@ impl Config {
         positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
         non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
         positive("sim.curve_interval_s", self.sim.curve_interval_s)?;
+        non_negative("sim.random_spawn_margin_m", self.sim.random_spawn_margin_m)?;
+        positive(
+            "metrics.observable_spacing_m",
+            self.metrics.observable_spacing_m,
+        )?;
+        if self.metrics.observable_spacing_m < self.map.voxel_m {
+            return Err(Error::usage(format!(
+                "config key `metrics.observable_spacing_m` ({}) must be at least `map.voxel_m` ({})",
+                self.metrics.observable_spacing_m, self.map.voxel_m
+            )));
+        }
+        if !(1..=64).contains(&self.metrics.observable_yaws) {
+            return Err(Error::usage(format!(
+                "config key `metrics.observable_yaws` must lie in 1..=64, got {}",
+                self.metrics.observable_yaws
+            )));
+        }
         positive("log.map_every_s", self.log.map_every_s)?;
         if !(1..=19).contains(&self.log.zstd_level) {
             return Err(Error::usage(format!(

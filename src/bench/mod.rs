@@ -7,11 +7,13 @@
 //! the same files (apart from wall-clock fields).
 
 pub mod plot;
+pub mod stats;
 pub mod store;
 pub mod summary;
 
+use crate::config::SpawnMode;
 use crate::plan::PlannerKind;
-use crate::sim::{self, World};
+use crate::sim::{self, ObservableCache, World};
 use crate::{scene, Config, Error, Result};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
@@ -60,6 +62,19 @@ pub struct BenchSpec {
     pub reference: Option<PlannerKind>,
     /// Write each run's MCAP log into `out/logs/`.
     pub log_runs: bool,
+    /// Where observable sets are cached (see `sim::observable`).
+    pub cache: ObservableCache,
+}
+
+/// The start rule of a batch: with more than one seed, each seed draws its own start (the same for
+/// every planner, so runs pair up) unless `keep_scene_spawn`; with one seed, the config decides
+/// (`sim.spawn`, the scene's own spawn by default).
+pub fn apply_spawn_rule(cfg: &mut Config, seeds: u64, keep_scene_spawn: bool) {
+    if keep_scene_spawn {
+        cfg.sim.spawn = SpawnMode::Scene;
+    } else if seeds > 1 {
+        cfg.sim.spawn = SpawnMode::Random;
+    }
 }
 
 /// One run to do.
@@ -139,13 +154,18 @@ pub fn plan_runs(spec: &BenchSpec) -> Vec<RunSpec> {
 }
 
 /// Runs one exploration; any error or panic becomes a failed row.
-pub fn run_one(run: &RunSpec, base: &Config, log_dir: Option<&Path>) -> BenchRow {
+pub fn run_one(
+    run: &RunSpec,
+    base: &Config,
+    log_dir: Option<&Path>,
+    cache: &ObservableCache,
+) -> BenchRow {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<sim::RunOutput> {
         let mut cfg = base.clone();
         cfg.seed = run.key.seed;
         run.planner.build(&cfg)?;
         let scene = scene::load(&run.scene_path, &cfg.scene)?;
-        let world = World::new(&scene, &cfg, None)?;
+        let world = World::with_cache(&scene, &cfg, None, cache)?;
         let Some(dir) = log_dir else {
             return sim::run(&scene, world, &cfg, run.planner, &mut sim::NoObserver);
         };
@@ -218,6 +238,28 @@ pub struct BatchReport {
     pub ran: usize,
     /// Failed rows among all rows in DIR.
     pub failed: usize,
+    /// Lines for the user (a damaged cache file that was recomputed, an unwritable cache).
+    pub notes: Vec<String>,
+}
+
+/// Computes (or reads from the cache) each scene's observable set once before the runs, so that
+/// parallel runs of one scene do not all compute it. A scene that fails to load is left to its runs,
+/// which report the error in their rows.
+fn prepare_scenes(runs: &[RunSpec], cfg: &Config, cache: &ObservableCache) -> Vec<String> {
+    let scenes: BTreeSet<&PathBuf> = runs.iter().map(|r| &r.scene_path).collect();
+    let mut notes = Vec::new();
+    for path in scenes {
+        let Ok(scene) = scene::load(path, &cfg.scene) else {
+            continue;
+        };
+        let mut cfg = cfg.clone();
+        // The set belongs to the scene's own spawn region, which random starts share.
+        cfg.sim.spawn = SpawnMode::Scene;
+        if let Ok(world) = World::with_cache(&scene, &cfg, None, cache) {
+            notes.extend(world.observable_source.warning());
+        }
+    }
+    notes
 }
 
 /// The runs still to do: all of them, or with `--resume` those not yet in `results.jsonl` (whose
@@ -297,12 +339,13 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         .num_threads(spec.jobs.max(1))
         .build()
         .map_err(|e| Error::Runtime(format!("cannot start the thread pool: {e}")))?;
+    let notes = pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache));
     // One pool: the runs and the ray casting inside each run share its threads, so the batch never
     // uses more than `jobs` threads.
     let write_errors: Vec<Error> = pool.install(|| {
         todo.par_iter()
             .filter_map(|run| {
-                let row = run_one(run, &spec.config, log_dir.as_deref());
+                let row = run_one(run, &spec.config, log_dir.as_deref(), &spec.cache);
                 let res = writer.lock().expect("writer lock").append(&row);
                 progress.finished(&row);
                 res.err()
@@ -319,6 +362,7 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         skipped,
         ran: total - skipped,
         failed,
+        notes,
     })
 }
 
@@ -399,6 +443,7 @@ mod tests {
             shard,
             reference: None,
             log_runs: false,
+            cache: ObservableCache::none(),
         }
     }
 
@@ -456,7 +501,7 @@ mod tests {
             scene_path: "/nonexistent/x.obj".into(),
             planner: PlannerKind::Greedy,
         };
-        let row = run_one(&run, &Config::default(), None);
+        let row = run_one(&run, &Config::default(), None, &ObservableCache::none());
         assert_eq!(row.status, RunStatus::Failed);
         assert!(row.error.unwrap().starts_with("/nonexistent/x.obj"));
     }

@@ -1,37 +1,18 @@
 //! `summary.md` and `summary.json`: the batch in the shape of the THP paper's tables.
 //!
 //! Table 1: per scene and planner, explored volume ε, its ratio r_ε to the reference planner's ε on
-//! the same scene, and path length L, as mean ± sample standard deviation over seeds (successful
-//! runs only). Table 2: mean per-step stage timings. Then one verdict line per planner.
+//! the same scene, path length L, completeness and simulated time, as mean ± the half-width of the
+//! Student-t 95 % confidence interval over seeds (successful runs only). Table 2: mean per-step stage
+//! timings. Then the paired comparison against the reference planner over every (scene, seed) pair
+//! that both ran successfully (same seed = same start), and one verdict line per planner that says
+//! only what those intervals support.
 
+use super::stats::{Better, MeanCi, PairedDiff};
 use super::store::{BenchRow, RunStatus};
 use crate::plan::PlannerKind;
 use crate::sim::metrics::STAGES;
 use serde::Serialize;
 use std::collections::BTreeMap;
-
-/// Mean and sample standard deviation (0 for fewer than two values).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct MeanStd {
-    pub mean: f64,
-    pub std: f64,
-}
-
-impl MeanStd {
-    pub fn of(v: &[f64]) -> MeanStd {
-        if v.is_empty() {
-            return MeanStd::default();
-        }
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let std = if v.len() < 2 {
-            0.0
-        } else {
-            (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-        };
-        MeanStd { mean, std }
-    }
-}
 
 /// One scene × planner cell of the tables.
 #[derive(Clone, Debug, Serialize)]
@@ -40,17 +21,17 @@ pub struct Cell {
     pub planner: String,
     pub runs: usize,
     pub failed: usize,
-    pub explored_volume_m3: MeanStd,
+    pub explored_volume_m3: MeanCi,
     /// Mean ε over mean ε of the reference planner on this scene; absent without a reference.
     pub r_epsilon: Option<f64>,
-    pub path_length_m: MeanStd,
-    pub completeness: MeanStd,
-    pub sim_time_s: MeanStd,
+    pub path_length_m: MeanCi,
+    pub completeness: MeanCi,
+    pub sim_time_s: MeanCi,
     pub collisions: u64,
     /// Mean over runs of each stage's mean per-step wall time, ms.
     pub timings_ms: BTreeMap<String, f64>,
     /// A* queries per run.
-    pub astar_calls: MeanStd,
+    pub astar_calls: MeanCi,
     /// TSP time per planning step that solved one (THP, NBV-TSP), ms: mean over runs of each run's
     /// mean, p50 and p95; absent for planners without a TSP.
     pub tsp_ms: Option<[f64; 3]>,
@@ -62,8 +43,8 @@ pub struct Verdict {
     pub planner: String,
     pub runs: usize,
     pub failed: usize,
-    pub mean_completeness: f64,
-    pub mean_path_length_m: f64,
+    pub completeness: MeanCi,
+    pub path_length_m: MeanCi,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -80,7 +61,83 @@ pub struct Summary {
     pub reference: Option<String>,
     pub cells: Vec<Cell>,
     pub verdicts: Vec<Verdict>,
+    /// Each other planner against the reference, over matched (scene, seed) pairs.
+    pub paired: Vec<Paired>,
     pub failures: Vec<Failure>,
+}
+
+/// One planner against the reference over the (scene, seed) pairs that both ran successfully.
+#[derive(Clone, Debug, Serialize)]
+pub struct Paired {
+    pub planner: String,
+    pub pairs: usize,
+    pub path_length_m: PairedDiff,
+    pub completeness: PairedDiff,
+    pub sim_time_s: PairedDiff,
+    /// Path each run needed to reach 90 % of the pair's smaller final ε (efficiency at equal
+    /// coverage, THP Fig. 6).
+    pub path_to_equal_coverage_m: PairedDiff,
+}
+
+/// Share of the pair's smaller final ε at which paths are compared ("equal coverage").
+pub const EQUAL_COVERAGE_FRACTION: f64 = 0.9;
+
+/// Path length at which a run's curve first reached explored volume `target` (linear between curve
+/// samples); `None` if it never did.
+pub fn path_to_volume(curve: &[crate::sim::metrics::CurveSample], target: f64) -> Option<f64> {
+    let k = curve.iter().position(|c| c.explored_volume_m3 >= target)?;
+    if k == 0 {
+        return Some(curve[0].path_length_m);
+    }
+    let (a, b) = (&curve[k - 1], &curve[k]);
+    let f = (target - a.explored_volume_m3) / (b.explored_volume_m3 - a.explored_volume_m3);
+    Some(a.path_length_m + f * (b.path_length_m - a.path_length_m))
+}
+
+/// The paired comparison of `planner` against `reference` (labels) in `rows`.
+fn paired(
+    rows: &[BenchRow],
+    label: &dyn Fn(&BenchRow) -> String,
+    planner: &str,
+    reference: &str,
+) -> Paired {
+    type Key = (String, u64);
+    let ok = |want: &str| -> BTreeMap<Key, &crate::sim::RunResult> {
+        rows.iter()
+            .filter(|r| r.status == RunStatus::Ok && label(r) == want)
+            .filter_map(|r| {
+                let res = r.result.as_ref()?;
+                Some(((r.key.scene_path.clone(), r.key.seed), res))
+            })
+            .collect()
+    };
+    let (mine, theirs) = (ok(planner), ok(reference));
+    let matched: Vec<(&crate::sim::RunResult, &crate::sim::RunResult)> = mine
+        .iter()
+        .filter_map(|(k, a)| theirs.get(k).map(|b| (*a, *b)))
+        .collect();
+    let values = |f: &dyn Fn(&crate::sim::RunResult) -> f64| -> Vec<(f64, f64)> {
+        matched.iter().map(|(a, b)| (f(a), f(b))).collect()
+    };
+    let equal_coverage: Vec<(f64, f64)> = matched
+        .iter()
+        .filter_map(|(a, b)| {
+            let target = EQUAL_COVERAGE_FRACTION * a.explored_volume_m3.min(b.explored_volume_m3);
+            Some((
+                path_to_volume(&a.curve, target)?,
+                path_to_volume(&b.curve, target)?,
+            ))
+        })
+        .collect();
+    let rel = |r: f64| 0.01 * r.abs();
+    Paired {
+        planner: planner.to_string(),
+        pairs: matched.len(),
+        path_length_m: PairedDiff::of(&values(&|r| r.path_length_m), Better::Lower, rel),
+        completeness: PairedDiff::of(&values(&|r| r.completeness), Better::Higher, |_| 0.005),
+        sim_time_s: PairedDiff::of(&values(&|r| r.sim_time_s), Better::Lower, rel),
+        path_to_equal_coverage_m: PairedDiff::of(&equal_coverage, Better::Lower, rel),
+    }
 }
 
 /// The scene's display name: its file stem.
@@ -152,7 +209,7 @@ impl Summary {
                 .filter_map(|r| r.result.as_ref())
                 .collect();
             let col = |f: &dyn Fn(&crate::sim::RunResult) -> f64| {
-                MeanStd::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>())
+                MeanCi::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>())
             };
             let timings_ms = STAGES
                 .iter()
@@ -213,14 +270,14 @@ impl Summary {
                     .filter_map(|r| r.result.as_ref())
                     .collect();
                 let mean = |f: &dyn Fn(&crate::sim::RunResult) -> f64| {
-                    MeanStd::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>()).mean
+                    MeanCi::of(&ok.iter().map(|r| f(r)).collect::<Vec<_>>())
                 };
                 Verdict {
                     planner: p.clone(),
                     runs: runs.len(),
                     failed: runs.len() - ok.len(),
-                    mean_completeness: mean(&|r| r.completeness),
-                    mean_path_length_m: mean(&|r| r.path_length_m),
+                    completeness: mean(&|r| r.completeness),
+                    path_length_m: mean(&|r| r.path_length_m),
                 }
             })
             .collect();
@@ -234,22 +291,30 @@ impl Summary {
                 error: r.error.clone().unwrap_or_default(),
             })
             .collect();
+        let paired = match &reference {
+            Some(r) => ok_planners
+                .iter()
+                .filter(|p| *p != r)
+                .map(|p| paired(rows, &label, p, r))
+                .collect(),
+            None => Vec::new(),
+        };
         Summary {
             reference,
             cells,
             verdicts,
+            paired,
             failures,
         }
     }
 
     pub fn to_markdown(&self) -> String {
-        let pm =
-            |m: MeanStd, digits: usize| format!("{:.*} ± {:.*}", digits, m.mean, digits, m.std);
+        let pm = |m: MeanCi, digits: usize| m.show(digits);
         let mut s = String::from("# Benchmark summary\n\n");
         let runs: usize = self.cells.iter().map(|c| c.runs).sum();
         let failed: usize = self.cells.iter().map(|c| c.failed).sum();
         s.push_str(&format!(
-            "{runs} runs, {failed} failed. Mean ± sample standard deviation over seeds (successful runs).\n\n"
+            "{runs} runs, {failed} failed. Mean ± half-width of the Student-t 95 % confidence interval over seeds (successful runs; no interval for a single run). Completeness is against the volume the camera could observe from the floor the robot can reach.\n\n"
         ));
         s.push_str("## Exploration (THP Table 1)\n\n");
         match &self.reference {
@@ -317,6 +382,28 @@ impl Summary {
                 }
             }
         }
+        if let (Some(reference), false) = (&self.reference, self.paired.is_empty()) {
+            s.push_str(&format!(
+                "\n## Paired comparison against {reference}\n\nOver the (scene, seed) pairs where both runs succeeded (the same seed starts both from the same pose). Δ = planner − {reference}: mean ± Student-t 95 % half-width. W/T/L: pairs the planner won, tied and lost (ties: L, time and path within 1 % of {reference}'s, completeness within 0.005). Equal coverage: the path each run needed to reach {:.0} % of the pair's smaller final ε.\n\n| planner | pairs | ΔL (m) | W/T/L | Δ completeness | W/T/L | Δ sim time (s) | W/T/L | Δ path to equal coverage (m) | W/T/L |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+                EQUAL_COVERAGE_FRACTION * 100.0
+            ));
+            let wtl = |d: &PairedDiff| format!("{}/{}/{}", d.wins, d.ties, d.losses);
+            for p in &self.paired {
+                s.push_str(&format!(
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                    p.planner,
+                    p.pairs,
+                    p.path_length_m.diff.show(2),
+                    wtl(&p.path_length_m),
+                    p.completeness.diff.show(4),
+                    wtl(&p.completeness),
+                    p.sim_time_s.diff.show(1),
+                    wtl(&p.sim_time_s),
+                    p.path_to_equal_coverage_m.diff.show(2),
+                    wtl(&p.path_to_equal_coverage_m),
+                ));
+            }
+        }
         s.push_str("\n## Verdict\n\n");
         for v in &self.verdicts {
             if v.failed == v.runs {
@@ -324,11 +411,32 @@ impl Summary {
                     "- **{}**: no successful run, {}/{} runs failed\n",
                     v.planner, v.failed, v.runs
                 ));
-            } else {
-                s.push_str(&format!(
-                    "- **{}**: mean completeness {:.3}, mean L {:.1} m, {}/{} runs failed\n",
-                    v.planner, v.mean_completeness, v.mean_path_length_m, v.failed, v.runs
-                ));
+                continue;
+            }
+            s.push_str(&format!(
+                "- **{}**: completeness {}, L {} m, {}/{} runs failed",
+                v.planner,
+                v.completeness.show(3),
+                v.path_length_m.show(1),
+                v.failed,
+                v.runs
+            ));
+            match (
+                self.paired.iter().find(|p| p.planner == v.planner),
+                &self.reference,
+            ) {
+                (Some(p), Some(r)) => s.push_str(&format!(
+                    ". Against {r} over {} pairs: path {}; completeness {}; simulated time {}; path to equal coverage {}.\n",
+                    p.pairs,
+                    p.path_length_m.reading("shorter", "longer"),
+                    p.completeness.reading("lower", "higher"),
+                    p.sim_time_s.reading("shorter", "longer"),
+                    p.path_to_equal_coverage_m.reading("shorter", "longer"),
+                )),
+                _ if self.reference.as_deref() == Some(v.planner.as_str()) => {
+                    s.push_str(" (reference)\n")
+                }
+                _ => s.push('\n'),
             }
         }
         if !self.failures.is_empty() {
@@ -351,21 +459,6 @@ impl Summary {
 mod tests {
     use super::*;
 
-    #[test]
-    fn mean_std_known_answer() {
-        let m = MeanStd::of(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
-        assert_eq!(m.mean, 5.0);
-        assert!((m.std - (32.0f64 / 7.0).sqrt()).abs() < 1e-12);
-        assert_eq!(
-            MeanStd::of(&[3.0]),
-            MeanStd {
-                mean: 3.0,
-                std: 0.0
-            }
-        );
-        assert_eq!(MeanStd::of(&[]), MeanStd::default());
-    }
-
     fn row(planner: &str, config_hash: &str, eps: Option<f64>) -> BenchRow {
         let key = super::super::RunKey {
             scene_path: "scenes/a.obj".into(),
@@ -380,7 +473,7 @@ mod tests {
                 let json = format!(
                     r#"{{"scene":"a","scene_hash":"h","planner":"{planner}","seed":1,
                     "spawn":{{"x":0,"y":0,"yaw":0}},"termination":"complete","completeness":0.5,
-                    "explored_volume_m3":{e},"explorable_volume_m3":10,"surface_coverage":0.5,
+                    "explored_volume_m3":{e},"observable_volume_m3":10,"surface_coverage":0.5,
                     "path_length_m":3,"sim_time_s":10,"wall_time_s":1,"real_time_factor":10,
                     "collisions":0,"steps":100,"replans":1,"astar_calls":1,"timings_ms":{{}},
                     "version":"0","config_hash":"{config_hash}","curve":[]}}"#
@@ -453,6 +546,10 @@ mod tests {
             r,
             [("greedy", Some(0.5)), ("nbv", None), ("thp", Some(1.0))]
         );
+        // One seed per planner: a pair, but no interval.
+        let greedy = &s.paired[0];
+        assert_eq!((greedy.planner.as_str(), greedy.pairs), ("greedy", 1));
+        assert_eq!(greedy.path_length_m.diff.ci95, None);
         // An explicit reference with no successful run gives no ratios.
         let s = Summary::of(&rows, Some(PlannerKind::Nbv));
         assert_eq!(s.reference, None);

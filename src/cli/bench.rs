@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use tensorscout::bench::{self, BenchRow, BenchSpec, RunStatus, Shard};
 use tensorscout::plan::PlannerKind;
+use tensorscout::sim::ObservableCache;
 use tensorscout::Error;
 
 #[derive(Args)]
@@ -52,9 +53,15 @@ struct RunArgs {
         default_value = "thp,tensor,nbv,greedy"
     )]
     planners: Vec<PlannerKind>,
-    /// Seeds per scene and planner: the config's `seed`, `seed+1`, …
+    /// Seeds per scene and planner: the config's `seed`, `seed+1`, … With more than one seed, each
+    /// seed starts from its own random pose over the scene's reachable floor (the same pose for every
+    /// planner, so runs pair up); see --scene-spawn.
     #[arg(long, default_value_t = 3)]
     seeds: u64,
+    /// Start every run at the scene's own spawn, even with several seeds (then seeds vary only the
+    /// planners' own random draws).
+    #[arg(long)]
+    scene_spawn: bool,
     #[command(flatten)]
     config: ConfigArgs,
     /// Runs in parallel on one thread pool (default: the number of cores).
@@ -135,17 +142,20 @@ fn run_batch(a: RunArgs) -> Result<()> {
         Some(j) => j,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    let mut config = a.config.load()?;
+    bench::apply_spawn_rule(&mut config, a.seeds, a.scene_spawn);
     let spec = BenchSpec {
         scenes: bench::collect_scenes(&a.scenes)?,
         planners: a.planners,
         seeds: a.seeds,
-        config: a.config.load()?,
+        config,
         jobs,
         out,
         resume: a.resume,
         shard,
         reference: a.reference,
         log_runs: a.log_runs,
+        cache: ObservableCache::user(),
     };
     let total = bench::plan_runs(&spec).len();
     let show = !a.quiet && std::io::stderr().is_terminal();
@@ -166,6 +176,9 @@ fn run_batch(a: RunArgs) -> Result<()> {
     bar.bar.set_message("0 failed");
     let report = bench::run_batch(&spec, &bar)?;
     bar.bar.finish_and_clear();
+    for note in &report.notes {
+        eprintln!("{note}");
+    }
     eprintln!(
         "{} runs ({} skipped as already done, {} run now), {} failed; results in {}",
         report.total,

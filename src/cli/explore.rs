@@ -1,6 +1,6 @@
 //! `tensorscout explore`: one run, its metrics, and optionally a picture.
 
-use super::{check_output, parse_spawn, ConfigArgs};
+use super::{check_output, parse_start, ConfigArgs, StartArg};
 use anyhow::Result;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -13,7 +13,7 @@ use tensorscout::log::{Recorder, RunIdentity, RunLog};
 use tensorscout::map::Map;
 use tensorscout::plan::Action;
 use tensorscout::plan::PlannerKind;
-use tensorscout::sim::{self, Observer, RunResult, StepView, World};
+use tensorscout::sim::{self, ObservableCache, Observer, RunResult, StepView, World};
 use tensorscout::{render, scene, Pose2};
 
 #[derive(Args)]
@@ -29,9 +29,10 @@ pub struct ExploreArgs {
     /// Seed of the run's random stream (overrides the config's `seed`).
     #[arg(long)]
     seed: Option<u64>,
-    /// Start pose `X,Y[,YAW]` in metres and radians (default: the scene's own, else automatic).
-    #[arg(long, value_name = "X,Y[,YAW]", value_parser = parse_spawn)]
-    spawn: Option<Pose2>,
+    /// Start pose `X,Y[,YAW]` in metres and radians, or `random`: a pose drawn from the seed over
+    /// the reachable region, the same for every planner (default: the scene's own, else automatic).
+    #[arg(long, value_name = "X,Y[,YAW]|random", value_parser = parse_start, allow_hyphen_values = true)]
+    spawn: Option<StartArg>,
     /// Draw the final map, the path, the start and the end into this PNG.
     #[arg(long, value_name = "PATH")]
     png: Option<PathBuf>,
@@ -107,14 +108,25 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     if let Some(log) = &args.log {
         check_output(log, args.force)?;
     }
+    let spawn: Option<Pose2> = match args.spawn {
+        Some(StartArg::Random) => {
+            cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
+            None
+        }
+        Some(StartArg::Pose(p)) => Some(p),
+        None => None,
+    };
     // Fail on an unavailable planner before the scene is loaded.
     args.planner.build(&cfg)?;
     let scene = scene::load(&args.scene, &cfg.scene)?;
-    let world = World::new(&scene, &cfg, args.spawn)?;
+    let world = World::with_cache(&scene, &cfg, spawn, &ObservableCache::user())?;
+    if let Some(w) = world.observable_source.warning() {
+        eprintln!("{w}");
+    }
 
     let mut logger = match &args.log {
         Some(path) => {
-            let identity = RunIdentity::new(&args.scene, &scene, args.planner, &cfg, args.spawn);
+            let identity = RunIdentity::new(&args.scene, &scene, args.planner, &cfg, spawn);
             let stop = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&stop))
@@ -160,10 +172,19 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     } else {
         println!("scene          {} ({})", r.scene, args.scene.display());
         println!("planner        {}  seed {}", r.planner, r.seed);
+        println!(
+            "start          ({:.2}, {:.2}, yaw {:.2})",
+            r.spawn.x, r.spawn.y, r.spawn.yaw
+        );
         println!("termination    {}", r.termination.as_str());
         println!(
-            "completeness   {:.3}  ({:.2} of {:.2} m³ explored)",
-            r.completeness, r.explored_volume_m3, r.explorable_volume_m3
+            "completeness   {:.3}  of the observable {:.2} m³ (reachable floor {:.1} m²)",
+            r.completeness, r.observable_volume_m3, r.reachable_area_m2
+        );
+        println!(
+            "explored       {:.2} m³ ({:.2} % outside the observable set)",
+            r.explored_volume_m3,
+            100.0 * r.explored_outside_observable_fraction
         );
         println!("surface        {:.3}", r.surface_coverage);
         println!("path length    {:.1} m", r.path_length_m);

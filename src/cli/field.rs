@@ -57,7 +57,7 @@ pub fn run(args: FieldArgs) -> Result<()> {
         .reference
         .then(|| field::max_orientation_difference_vs_reference(&mut tensor_field));
     if let Some(png) = &args.png {
-        let mut canvas = render::draw_ground_truth(&gt);
+        let mut canvas = render::draw_ground_truth(&gt, None);
         let scale = canvas.scale;
         draw_field(&mut canvas.image, &tensor_field, scale, 4);
         canvas.save(png)?;

@@ -103,6 +103,24 @@ pub fn dispatch(cli: Cli) -> Result<()> {
     }
 }
 
+/// Where `explore` starts: `random` or a pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StartArg {
+    Random,
+    Pose(Pose2),
+}
+
+/// Parses `random` or `X,Y[,YAW]`.
+fn parse_start(s: &str) -> std::result::Result<StartArg, String> {
+    if s.trim() == "random" {
+        Ok(StartArg::Random)
+    } else {
+        parse_spawn(s)
+            .map(StartArg::Pose)
+            .map_err(|e| format!("{e} (or `random`)"))
+    }
+}
+
 /// Parses `X,Y[,YAW]` (metres, metres, radians).
 fn parse_spawn(s: &str) -> std::result::Result<Pose2, String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
@@ -162,5 +180,14 @@ mod tests {
         assert!(parse_spawn("1").is_err());
         assert!(parse_spawn("1,NaN").is_err());
         assert!(parse_spawn("1,2,3,4").is_err());
+        assert_eq!(parse_start("random").unwrap(), StartArg::Random);
+        assert_eq!(
+            parse_start("1,2").unwrap(),
+            StartArg::Pose(Pose2::new(1.0, 2.0, 0.0))
+        );
+        assert_eq!(
+            parse_start("rand").unwrap_err(),
+            "expected X,Y or X,Y,YAW, got `rand` (or `random`)"
+        );
     }
 }

@@ -55,8 +55,8 @@ pub fn run(args: ReplayArgs) -> Result<()> {
         if let Some(r) = &summary.result {
             println!("termination    {}", r.termination.as_str());
             println!(
-                "completeness   {:.3}  ({:.2} of {:.2} m³)",
-                r.completeness, r.explored_volume_m3, r.explorable_volume_m3
+                "completeness   {:.3}  ({:.2} m³ explored, {:.2} m³ observable)",
+                r.completeness, r.explored_volume_m3, r.observable_volume_m3
             );
             println!(
                 "path length    {:.1} m  sim time {:.1} s",

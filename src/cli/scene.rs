@@ -5,6 +5,7 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 use tensorscout::scene::{self, generate, GroundTruth};
+use tensorscout::sim::{ObservableCache, World};
 use tensorscout::{render, Pose2};
 
 #[derive(Subcommand)]
@@ -48,10 +49,12 @@ tensorscout scene import map.yaml -o house.obj"
         #[arg(long)]
         force: bool,
     },
-    /// Print a scene's bounds, triangle count, floor height, explorable area and spawn.
+    /// Print a scene's bounds, triangle count, floor height, reachable area, observable volume and
+    /// spawn.
     #[command(after_help = "Example:\n  tensorscout scene info scenes/apartment_small.obj --json")]
     Info(InfoArgs),
-    /// Draw a scene's ground truth (obstacles, explorable region, spawn) as PNG.
+    /// Draw a scene's ground truth as PNG: obstacles, reachable floor, space observable from it but
+    /// not reachable, never-observable space, and the spawn.
     #[command(
         after_help = "Example:\n  tensorscout scene render scenes/apartment_small.obj -o apartment.png"
     )]
@@ -89,11 +92,15 @@ pub struct InfoArgs {
 }
 
 impl SceneArgs {
-    fn load(&self) -> Result<(scene::Scene, GroundTruth)> {
+    /// The scene, its ground truth and what can be observed in it (through the user's cache).
+    fn load(&self) -> Result<(scene::Scene, World)> {
         let cfg = self.config.load()?;
         let scene = scene::load(&self.scene, &cfg.scene)?;
-        let gt = GroundTruth::build(&scene.mesh, self.spawn.or(scene.spawn), &cfg)?;
-        Ok((scene, gt))
+        let world = World::with_cache(&scene, &cfg, self.spawn, &ObservableCache::user())?;
+        if let Some(w) = world.observable_source.warning() {
+            eprintln!("{w}");
+        }
+        Ok((scene, world))
     }
 }
 
@@ -143,8 +150,11 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             Ok(())
         }
         SceneCommand::Info(args) => {
-            let (scene, gt) = args.scene.load()?;
-            let info = scene::info(&scene, &gt);
+            let (scene, world) = args.scene.load()?;
+            let mut info = scene::info(&scene, &world.ground_truth);
+            info.observable_volume_m3 = world.observable.volume_m3();
+            info.observable_surface_voxels = world.observable.surface_voxels().len();
+            info.observable_positions = world.observable.positions();
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&info)?);
             } else {
@@ -158,8 +168,9 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             force,
         } => {
             check_output(&output, force)?;
-            let (_, gt) = scene.load()?;
-            render::draw_ground_truth(&gt).save(&output)?;
+            let (_, world) = scene.load()?;
+            render::draw_ground_truth(&world.ground_truth, Some(&world.observable))
+                .save(&output)?;
             Ok(())
         }
     }
@@ -183,11 +194,11 @@ fn print_info(i: &scene::ground_truth::SceneInfo) {
     );
     println!("triangles      {} ({} vertices)", i.triangles, i.vertices);
     println!("floor height   {:.3} m (moved to z = 0)", i.floor_z);
+    println!("reachable      {:.1} m² of floor", i.reachable_area_m2);
     println!(
-        "explorable     {:.1} m² ({} cells), {:.1} m³ in the height band",
-        i.explorable_area_m2, i.region_cells, i.explorable_volume_m3
+        "observable     {:.1} m³ in the height band ({} surface voxels; {} camera positions)",
+        i.observable_volume_m3, i.observable_surface_voxels, i.observable_positions
     );
-    println!("surface voxels {}", i.surface_voxels);
     println!(
         "spawn          ({:.2}, {:.2}, yaw {:.2}){}",
         i.spawn.x,

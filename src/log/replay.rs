@@ -192,7 +192,7 @@ pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
         )));
     }
     let spawn = parse_spawn(&id.spawn);
-    let world = World::new(&scene, &cfg, spawn)?;
+    let world = World::with_cache(&scene, &cfg, spawn, &crate::sim::ObservableCache::user())?;
     let comparer = Comparer {
         recorded: log.messages.iter().collect(),
         next: 0,

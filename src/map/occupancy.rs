@@ -346,6 +346,22 @@ pub fn traverse(
     t_end: f64,
     mut visit: impl FnMut(usize, f64, f64),
 ) {
+    traverse_while(grid, origin, dir, t_end, |v, t_in, t_out| {
+        visit(v, t_in, t_out);
+        true
+    })
+}
+
+/// [`traverse`] that stops as soon as `visit` returns `false` (a ray cast through the voxels ends at
+/// its first hit).
+#[inline(always)]
+pub fn traverse_while(
+    grid: &GridSpec,
+    origin: Point3<f64>,
+    dir: Vector3<f64>,
+    t_end: f64,
+    mut visit: impl FnMut(usize, f64, f64) -> bool,
+) {
     let res = grid.res;
     let lo = [grid.origin_x, grid.origin_y, 0.0];
     let n = [grid.nx as i64, grid.ny as i64, grid.nz as i64];
@@ -409,8 +425,7 @@ pub fn traverse(
     macro_rules! advance {
         ($t:ident, $dt:ident, $s:ident, $l:ident) => {{
             let t_out = $t.min(t1);
-            visit(flat as usize, t_in, t_out);
-            if $t >= t1 || $l == 0 {
+            if !visit(flat as usize, t_in, t_out) || $t >= t1 || $l == 0 {
                 return;
             }
             $l -= 1;

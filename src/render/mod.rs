@@ -6,6 +6,7 @@
 use crate::grid::GridSpec;
 use crate::map::{CellState, Map};
 use crate::scene::GroundTruth;
+use crate::sim::ObservableSet;
 use crate::{Error, Pose2, Result};
 use image::{Rgb, RgbImage};
 use nalgebra::Point2;
@@ -15,11 +16,16 @@ pub const UNKNOWN: Rgb<u8> = Rgb([150, 150, 150]);
 pub const FREE: Rgb<u8> = Rgb([250, 250, 250]);
 pub const OCCUPIED: Rgb<u8> = Rgb([20, 20, 20]);
 pub const TRUTH_WALL: Rgb<u8> = Rgb([200, 120, 120]);
-pub const REGION: Rgb<u8> = Rgb([235, 242, 250]);
 pub const PATH: Rgb<u8> = Rgb([30, 90, 220]);
 pub const START: Rgb<u8> = Rgb([20, 170, 60]);
 pub const END: Rgb<u8> = Rgb([220, 40, 40]);
 pub const FRONTIER: Rgb<u8> = Rgb([250, 160, 20]);
+/// Floor the robot can reach (`scene render`).
+pub const REACHABLE: Rgb<u8> = Rgb([200, 235, 200]);
+/// Space the camera can observe from the reachable floor, where the robot itself cannot go.
+pub const OBSERVABLE_UNREACHABLE: Rgb<u8> = Rgb([250, 226, 150]);
+/// Space no pose of the reachable floor can observe.
+pub const NEVER_OBSERVABLE: Rgb<u8> = Rgb([175, 175, 185]);
 /// Free, but too close to a known obstacle for the robot's centre.
 pub const INFLATED: Rgb<u8> = Rgb([214, 226, 240]);
 
@@ -130,14 +136,23 @@ impl Canvas {
     }
 }
 
-/// The ground truth: explorable region tinted, obstacle columns dark, the spawn marked.
-pub fn draw_ground_truth(gt: &GroundTruth) -> Canvas {
-    let mut canvas = Canvas::new(gt.grid, FREE);
+/// The ground truth: obstacle columns dark, the reachable floor tinted, the spawn marked. With
+/// the observable set, the space observable from the reachable floor but not reachable, and the
+/// space never observable, get colours of their own; without it, the rest stays white.
+pub fn draw_ground_truth(gt: &GroundTruth, observable: Option<&ObservableSet>) -> Canvas {
+    let background = if observable.is_some() {
+        NEVER_OBSERVABLE
+    } else {
+        FREE
+    };
+    let mut canvas = Canvas::new(gt.grid, background);
     canvas.paint_cells(|i| {
         if gt.obstacle_column(i) {
             Some(OCCUPIED)
-        } else if gt.in_region(i) {
-            Some(REGION)
+        } else if gt.reachable(i) {
+            Some(REACHABLE)
+        } else if observable.is_some_and(|o| o.column_observable(gt, i)) {
+            Some(OBSERVABLE_UNREACHABLE)
         } else {
             None
         }

@@ -1,11 +1,20 @@
 //! The ground truth the metrics compare against: the mesh voxelised on the map grid, obstacle columns,
-//! the explorable region around the spawn, surface voxels and obstacle clearance.
+//! the region around the spawn, the **reachable region**, surface voxels and obstacle clearance.
+//!
+//! The reachable region is where the robot can ever be: the floor cells whose centre keeps the
+//! planners' inflation radius (`robot.radius_m + map.inflation_margin_m`) from every obstacle
+//! column's square, connected to the spawn under the searches' move rule (8-connected, a diagonal
+//! step only when both orthogonal cells beside it are open). Real plans have doors narrower than the
+//! robot and openings onto the outside: what lies beyond those is not counted against any planner.
+//! What the camera can observe from that region is computed above the sensor, in
+//! `sim::observable`.
 //!
 //! Voxelisation is an exact triangle–box separating-axis test in grid units, with vertices snapped to
 //! 1e-4 of a voxel and voxels treated as half-open `[i, i+1)`: a wall face lying exactly on a voxel
 //! boundary (common: generated and imported scenes sit on a 0.05 m raster) marks only the voxel on
 //! its upper side, never both, and floating-point noise in the grid origin cannot flip that choice.
 
+use super::geometry::triangle_meets_cylinder;
 use super::{Scene, TriMesh};
 use crate::config::Config;
 use crate::error::{Error, Result};
@@ -29,6 +38,14 @@ pub struct GroundTruth {
     obstacle: Vec<bool>,
     region: Vec<bool>,
     region_cells: usize,
+    /// Distance from each cell centre to the nearest obstacle column's square, metres: exact below
+    /// `fit_limit_m`, a lower bound at or above it.
+    fit_clearance: Vec<f32>,
+    fit_limit_m: f64,
+    inflation_m: f64,
+    reachable: Vec<bool>,
+    reachable_cells: usize,
+    triangles: VoxelTriangles,
     band: std::ops::Range<usize>,
     surface: Vec<u32>,
     clearance: Vec<f32>,
@@ -56,7 +73,11 @@ impl GroundTruth {
                 grid.nx, grid.ny, grid.nz
             )));
         }
-        let occupied = voxelise(mesh, &grid);
+        let triangles = VoxelTriangles::build(mesh, &grid);
+        let mut occupied = vec![false; grid.voxels()];
+        for &v in &triangles.voxels {
+            occupied[v as usize] = true;
+        }
         let robot_layers = grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m);
         let cells = grid.cells();
         let obstacle: Vec<bool> = (0..cells)
@@ -112,6 +133,25 @@ impl GroundTruth {
             }
         }
         let region_cells = region.iter().filter(|&&r| r).count();
+        let inflation_m = cfg.robot.radius_m + cfg.map.inflation_margin_m;
+        let fit_limit_m = inflation_m + cfg.sim.random_spawn_margin_m + grid.res;
+        let fit_clearance = square_clearance(&grid, &obstacle, &clearance, fit_limit_m);
+        let body = (
+            cfg.map.band_min_m,
+            cfg.robot.height_m.min(cfg.map.band_max_m),
+        );
+        let fits = disc_fits(
+            mesh,
+            &grid,
+            &triangles,
+            &obstacle,
+            &fit_clearance,
+            robot_layers.clone(),
+            body,
+            inflation_m,
+        );
+        let reachable = flood_fill_moves(&grid, &fits, start);
+        let reachable_cells = reachable.iter().filter(|&&r| r).count();
         let band = grid.layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
         let surface: Vec<u32> = band
             .clone()
@@ -126,6 +166,12 @@ impl GroundTruth {
             obstacle,
             region,
             region_cells,
+            fit_clearance,
+            fit_limit_m,
+            inflation_m,
+            reachable,
+            reachable_cells,
+            triangles,
             band,
             surface,
             clearance,
@@ -142,9 +188,66 @@ impl GroundTruth {
         self.obstacle[cell]
     }
 
-    /// Whether the cell belongs to the explorable region.
+    /// Whether the cell belongs to the region: the floor connected to the spawn through
+    /// obstacle-free cells, grown by one cell. It ignores the robot's size, so it leaks through gaps
+    /// the robot cannot pass; the metrics use the [reachable](Self::reachable) region instead.
     pub fn in_region(&self, cell: usize) -> bool {
         self.region[cell]
+    }
+
+    /// Whether the robot can ever stand on the cell (see the module doc).
+    pub fn reachable(&self, cell: usize) -> bool {
+        self.reachable[cell]
+    }
+
+    /// The reachable region, one flag per cell.
+    pub fn reachable_mask(&self) -> &[bool] {
+        &self.reachable
+    }
+
+    pub fn reachable_cells(&self) -> usize {
+        self.reachable_cells
+    }
+
+    /// Floor area of the reachable region, m².
+    pub fn reachable_area_m2(&self) -> f64 {
+        self.reachable_cells as f64 * self.grid.cell_area()
+    }
+
+    /// The mesh's triangles by the voxels they overlap.
+    pub fn voxel_triangles(&self) -> &VoxelTriangles {
+        &self.triangles
+    }
+
+    /// The planners' inflation radius, metres.
+    pub fn inflation_m(&self) -> f64 {
+        self.inflation_m
+    }
+
+    /// The reachable cells whose centre keeps at least `inflation_m() + margin_m` from every obstacle
+    /// column's square, ascending. `margin_m` at most `sim.random_spawn_margin_m` (the clearance is
+    /// exact up to there).
+    pub fn spawn_candidates(&self, margin_m: f64) -> Vec<usize> {
+        let need = self.inflation_m + margin_m;
+        debug_assert!(need <= self.fit_limit_m);
+        (0..self.grid.cells())
+            .filter(|&c| self.reachable[c] && self.fit_clearance[c] as f64 >= need)
+            .collect()
+    }
+
+    /// The same ground truth with another spawn in the same reachable region (a random start): only
+    /// the pose changes, so nothing is recomputed. Fails when the pose is not on a reachable cell.
+    pub fn with_spawn(mut self, spawn: Pose2) -> Result<GroundTruth> {
+        match self.grid.cell_of(spawn.position()) {
+            Some(c) if self.reachable[self.grid.index(c)] => {
+                self.spawn = spawn;
+                Ok(self)
+            }
+            _ => Err(Error::usage(format!(
+                "start ({:.2}, {:.2}) is not in the reachable region",
+                spawn.x, spawn.y
+            ))),
+        }
     }
 
     pub fn region_cells(&self) -> usize {
@@ -188,12 +291,62 @@ impl GroundTruth {
     }
 }
 
-/// Marks every voxel that a triangle overlaps. Parallel over layers; each layer is computed
-/// independently, so the result does not depend on the thread count.
-fn voxelise(mesh: &TriMesh, grid: &GridSpec) -> Vec<bool> {
+/// The triangles that overlap each occupied voxel, by the same exact test as the voxelisation: what
+/// a ray walking the voxels must test to find the mesh's first hit.
+#[derive(Clone, Debug, Default)]
+pub struct VoxelTriangles {
+    /// Occupied voxels (flat indices), ascending.
+    voxels: Vec<u32>,
+    /// `triangles[starts[k]..starts[k + 1]]` overlap `voxels[k]`.
+    starts: Vec<u32>,
+    triangles: Vec<u32>,
+}
+
+impl VoxelTriangles {
+    /// Lists the triangles of `mesh` over every voxel of `grid`.
+    pub fn build(mesh: &TriMesh, grid: &GridSpec) -> VoxelTriangles {
+        let tris = snapped_triangles(mesh, grid);
+        let layers: Vec<Vec<(u32, u32)>> = (0..grid.nz)
+            .into_par_iter()
+            .map(|iz| {
+                let mut pairs = Vec::new();
+                layer_overlaps(
+                    &tris,
+                    grid,
+                    iz,
+                    |_, _| true,
+                    |cell, t| pairs.push(((iz * grid.cells() + cell) as u32, t as u32)),
+                );
+                pairs.sort_unstable();
+                pairs
+            })
+            .collect();
+        let mut out = VoxelTriangles::default();
+        for (v, t) in layers.into_iter().flatten() {
+            if out.voxels.last() != Some(&v) {
+                out.voxels.push(v);
+                out.starts.push(out.triangles.len() as u32);
+            }
+            out.triangles.push(t);
+        }
+        out.starts.push(out.triangles.len() as u32);
+        out
+    }
+
+    /// The triangles overlapping voxel `v` (empty for a free voxel).
+    #[inline]
+    pub fn of(&self, v: usize) -> &[u32] {
+        match self.voxels.binary_search(&(v as u32)) {
+            Ok(k) => &self.triangles[self.starts[k] as usize..self.starts[k + 1] as usize],
+            Err(_) => &[],
+        }
+    }
+}
+
+/// The mesh's triangles in grid units, vertices snapped to `SNAP` (see the module doc).
+fn snapped_triangles(mesh: &TriMesh, grid: &GridSpec) -> Vec<[[f64; 3]; 3]> {
     let snap = |v: f64| (v / SNAP).round() * SNAP;
-    let tris: Vec<[[f64; 3]; 3]> = mesh
-        .triangles
+    mesh.triangles
         .iter()
         .map(|t| {
             t.map(|i| {
@@ -205,42 +358,47 @@ fn voxelise(mesh: &TriMesh, grid: &GridSpec) -> Vec<bool> {
                 ]
             })
         })
-        .collect();
+        .collect()
+}
+
+/// Calls `hit(cell, triangle)` for every cell of layer `iz` that a triangle overlaps, testing only
+/// the pairs that `want(cell, triangle)` asks for.
+fn layer_overlaps(
+    tris: &[[[f64; 3]; 3]],
+    grid: &GridSpec,
+    iz: usize,
+    want: impl Fn(usize, usize) -> bool,
+    mut hit: impl FnMut(usize, usize),
+) {
     let (nx, ny) = (grid.nx, grid.ny);
     let half = 0.5 * (1.0 - OPEN);
-    let layers: Vec<Vec<bool>> = (0..grid.nz)
-        .into_par_iter()
-        .map(|iz| {
-            let mut layer = vec![false; nx * ny];
-            let z0 = iz as f64;
-            for tri in &tris {
-                let lo = |k: usize| tri.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
-                let hi = |k: usize| tri.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
-                if lo(2) > z0 + 1.0 - OPEN || hi(2) < z0 {
-                    continue;
-                }
-                let range = |k: usize, n: usize| {
-                    let a = lo(k).floor().max(0.0);
-                    let b = hi(k).floor().min(n as f64 - 1.0);
-                    (a <= b).then_some(a as usize..=b as usize)
-                };
-                let (Some(xs), Some(ys)) = (range(0, nx), range(1, ny)) else {
-                    continue;
-                };
-                for iy in ys {
-                    for ix in xs.clone() {
-                        let cell = iy * nx + ix;
-                        if !layer[cell] {
-                            let centre = [ix as f64 + half, iy as f64 + half, z0 + half];
-                            layer[cell] = triangle_box_overlap(centre, half, tri);
-                        }
+    let z0 = iz as f64;
+    for (t, tri) in tris.iter().enumerate() {
+        let lo = |k: usize| tri.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
+        let hi = |k: usize| tri.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
+        if lo(2) > z0 + 1.0 - OPEN || hi(2) < z0 {
+            continue;
+        }
+        let range = |k: usize, n: usize| {
+            let a = lo(k).floor().max(0.0);
+            let b = hi(k).floor().min(n as f64 - 1.0);
+            (a <= b).then_some(a as usize..=b as usize)
+        };
+        let (Some(xs), Some(ys)) = (range(0, nx), range(1, ny)) else {
+            continue;
+        };
+        for iy in ys {
+            for ix in xs.clone() {
+                let cell = iy * nx + ix;
+                if want(cell, t) {
+                    let centre = [ix as f64 + half, iy as f64 + half, z0 + half];
+                    if triangle_box_overlap(centre, half, tri) {
+                        hit(cell, t);
                     }
                 }
             }
-            layer
-        })
-        .collect();
-    layers.concat()
+        }
+    }
 }
 
 /// Exact separating-axis test (Akenine-Möller) of a triangle against the cube `centre ± half`.
@@ -360,6 +518,138 @@ fn edt_1d(f: &mut [f64]) {
     }
 }
 
+/// Distance from each cell centre to the nearest obstacle column's square (`[i, i+1)` in cells),
+/// metres. Exact where it is below `limit_m`; elsewhere a lower bound of at least `limit_m`. The
+/// centre-to-centre `clearance` bounds it from above, and from below by half a cell diagonal, so
+/// only cells near an obstacle need the exact local search.
+fn square_clearance(
+    grid: &GridSpec,
+    obstacle: &[bool],
+    clearance: &[f32],
+    limit_m: f64,
+) -> Vec<f32> {
+    let res = grid.res;
+    let half_diag = std::f64::consts::FRAC_1_SQRT_2;
+    (0..grid.cells())
+        .into_par_iter()
+        .map(|i| {
+            let dc = clearance[i] as f64 / res; // cells
+            if !dc.is_finite() || dc - half_diag >= limit_m / res {
+                return if dc.is_finite() {
+                    ((dc - half_diag) * res) as f32
+                } else {
+                    f32::INFINITY
+                };
+            }
+            if obstacle[i] {
+                return 0.0;
+            }
+            let c = grid.cell(i);
+            // The nearest square's centre lies within dc + half a diagonal.
+            let r = (dc + half_diag).ceil() as i32;
+            let mut best = f64::INFINITY;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                        continue;
+                    };
+                    if obstacle[j] {
+                        // Gap from the centre (offset 0.5 into the cell) to the square, per axis.
+                        let gx = (dx.abs() as f64 - 0.5).max(0.0);
+                        let gy = (dy.abs() as f64 - 0.5).max(0.0);
+                        best = best.min(gx * gx + gy * gy);
+                    }
+                }
+            }
+            (best.sqrt() * res) as f32
+        })
+        .collect()
+}
+
+/// Whether the robot's disc, grown to the inflation radius, fits at each cell centre without
+/// touching the mesh between `body.0` and `body.1` (the collision test's height range). Cells whose
+/// centre keeps more than the radius from every obstacle column's square fit for certain (every
+/// triangle part in the body's layers lies inside such squares); the others, near an obstacle, are
+/// decided exactly against the triangles of the obstacle voxels around them.
+#[allow(clippy::too_many_arguments)]
+fn disc_fits(
+    mesh: &TriMesh,
+    grid: &GridSpec,
+    triangles: &VoxelTriangles,
+    obstacle: &[bool],
+    square_clearance: &[f32],
+    body_layers: std::ops::Range<usize>,
+    body: (f64, f64),
+    radius: f64,
+) -> Vec<bool> {
+    let reach = (radius / grid.res).ceil() as i32 + 1;
+    (0..grid.cells())
+        .into_par_iter()
+        .map(|i| {
+            if square_clearance[i] as f64 > radius {
+                return true;
+            }
+            if obstacle[i] {
+                return false;
+            }
+            let c = grid.cell(i);
+            let mut near: Vec<u32> = Vec::new();
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                        continue;
+                    };
+                    if obstacle[j] {
+                        for iz in body_layers.clone() {
+                            near.extend_from_slice(triangles.of(iz * grid.cells() + j));
+                        }
+                    }
+                }
+            }
+            near.sort_unstable();
+            near.dedup();
+            let p = grid.center(c);
+            !near.iter().any(|&t| {
+                let tri = mesh.triangles[t as usize].map(|k| {
+                    let v = mesh.vertices[k as usize];
+                    [v.x as f64, v.y as f64, v.z as f64]
+                });
+                triangle_meets_cylinder(tri, p.x, p.y, radius, body.0, body.1)
+            })
+        })
+        .collect()
+}
+
+/// The cells reachable from `start` through `open` cells under the searches' move rule:
+/// 8-connected, a diagonal step only when both orthogonal cells beside it are open. `start` itself is
+/// included even when it is not open (a spawn just inside an inflation band can still drive out).
+fn flood_fill_moves(grid: &GridSpec, open: &[bool], start: usize) -> Vec<bool> {
+    let mut seen = vec![false; grid.cells()];
+    seen[start] = true;
+    let mut stack = vec![start];
+    let is_open = |c: Cell| grid.checked_index(c).filter(|&j| open[j]);
+    while let Some(i) = stack.pop() {
+        let c = grid.cell(i);
+        for (dx, dy) in NEIGHBOURS_8 {
+            let Some(j) = is_open(Cell::new(c.x + dx, c.y + dy)) else {
+                continue;
+            };
+            if dx != 0
+                && dy != 0
+                && (is_open(Cell::new(c.x + dx, c.y)).is_none()
+                    || is_open(Cell::new(c.x, c.y + dy)).is_none())
+            {
+                continue;
+            }
+            if !seen[j] {
+                seen[j] = true;
+                stack.push(j);
+            }
+        }
+    }
+    seen
+}
+
 /// The 4-connected obstacle-free cells reachable from `start`.
 fn flood_fill_4(grid: &GridSpec, obstacle: &[bool], start: usize) -> Vec<bool> {
     let mut seen = vec![false; grid.cells()];
@@ -444,10 +734,15 @@ pub struct SceneInfo {
     pub triangles: usize,
     /// The original floor height before the mesh was moved to z = 0, metres.
     pub floor_z: f64,
-    pub explorable_area_m2: f64,
-    pub explorable_volume_m3: f64,
-    pub region_cells: usize,
-    pub surface_voxels: usize,
+    /// Floor area the robot can reach from the spawn, m².
+    pub reachable_area_m2: f64,
+    /// Volume the camera could observe from the reachable floor, m³ (filled in by the caller, which
+    /// owns the sensor; 0 until then).
+    pub observable_volume_m3: f64,
+    /// Ground-truth surface voxels in the band among the observable ones.
+    pub observable_surface_voxels: usize,
+    /// Camera positions sampled for the observable volume.
+    pub observable_positions: usize,
     pub spawn: Pose2,
     /// Whether the spawn came from the file (true) or was chosen automatically.
     pub spawn_from_file: bool,
@@ -467,10 +762,10 @@ pub fn info(scene: &Scene, gt: &GroundTruth) -> SceneInfo {
         vertices: scene.mesh.vertices.len(),
         triangles: scene.mesh.triangles.len(),
         floor_z: scene.floor_z,
-        explorable_area_m2: gt.region_cells() as f64 * gt.grid.cell_area(),
-        explorable_volume_m3: gt.explorable_volume_m3(),
-        region_cells: gt.region_cells(),
-        surface_voxels: gt.surface_voxels().len(),
+        reachable_area_m2: gt.reachable_area_m2(),
+        observable_volume_m3: 0.0,
+        observable_surface_voxels: 0,
+        observable_positions: 0,
         spawn: gt.spawn,
         spawn_from_file: scene.spawn.is_some(),
         grid: gt.grid,

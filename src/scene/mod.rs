@@ -4,12 +4,13 @@
 
 pub mod extrude;
 pub mod generate;
+pub mod geometry;
 pub mod ground_truth;
 pub mod houseexpo;
 pub mod mesh;
 pub mod rosmap;
 
-pub use ground_truth::{info, GroundTruth};
+pub use ground_truth::{info, GroundTruth, VoxelTriangles};
 pub use mesh::TriMesh;
 
 use crate::config::SceneConfig;

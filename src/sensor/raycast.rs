@@ -4,6 +4,7 @@
 //! crate sees only nalgebra.
 
 use crate::error::{Error, Result};
+use crate::scene::geometry::triangle_meets_cylinder;
 use crate::scene::TriMesh;
 use nalgebra::{Point3, Vector3};
 use parry3d::bounding_volume::Aabb;
@@ -75,6 +76,30 @@ impl MeshBvh {
                 ray_triangle(ray.origin, ray.dir, &self.tris[i as usize], best)
             })
             .map(|(_, t)| t)
+    }
+
+    /// [`MeshBvh::cast`] restricted to the triangles `candidates` (indices into the mesh), with the
+    /// same arithmetic: a caller that walks a grid and knows which triangles touch each cell gets the
+    /// same distances without the tree.
+    #[inline]
+    pub fn cast_among(
+        &self,
+        origin: Point3<f32>,
+        dir: Vector3<f32>,
+        candidates: &[u32],
+        max_range: f32,
+    ) -> Option<f32> {
+        let o = PVector::new(origin.x, origin.y, origin.z);
+        let d = PVector::new(dir.x, dir.y, dir.z);
+        let mut best = max_range;
+        let mut hit = None;
+        for &i in candidates {
+            if let Some(t) = ray_triangle(o, d, &self.tris[i as usize], best) {
+                best = t;
+                hit = Some(t);
+            }
+        }
+        hit
     }
 
     /// The same query through parry's own triangle ray cast: the reference for [`MeshBvh::cast`].
@@ -155,90 +180,6 @@ fn ray_triangle(o: PVector, d: PVector, tri: &[PVector; 3], max: f32) -> Option<
     }
     let t = e2.dot(q) * inv;
     (t >= 0.0 && t < max).then_some(t)
-}
-
-/// Exact test of one triangle against a vertical cylinder (see [`MeshBvh::cylinder_intersects`]).
-fn triangle_meets_cylinder(
-    tri: [[f64; 3]; 3],
-    x: f64,
-    y: f64,
-    radius: f64,
-    z_min: f64,
-    z_max: f64,
-) -> bool {
-    // Clip to z ≥ z_min, then z ≤ z_max (Sutherland–Hodgman; inclusive, so a triangle lying in a slab
-    // face is kept). At most 5 vertices result.
-    let mut poly: Vec<[f64; 3]> = tri.to_vec();
-    poly = clip_z(&poly, z_min, true);
-    poly = clip_z(&poly, z_max, false);
-    if poly.is_empty() {
-        return false;
-    }
-    let pts: Vec<[f64; 2]> = poly.iter().map(|p| [p[0] - x, p[1] - y]).collect();
-    let r2 = radius * radius;
-    // Any vertex or edge within the radius?
-    for i in 0..pts.len() {
-        let a = pts[i];
-        let b = pts[(i + 1) % pts.len()];
-        if segment_origin_dist2(a, b) <= r2 {
-            return true;
-        }
-    }
-    // Otherwise the axis must lie strictly inside the projected (convex) polygon.
-    let mut sign = 0.0f64;
-    for i in 0..pts.len() {
-        let a = pts[i];
-        let b = pts[(i + 1) % pts.len()];
-        // Cross product of edge a→b with a→origin.
-        let cross = (b[0] - a[0]) * (-a[1]) - (b[1] - a[1]) * (-a[0]);
-        if cross == 0.0 {
-            continue;
-        }
-        if sign == 0.0 {
-            sign = cross.signum();
-        } else if cross.signum() != sign {
-            return false;
-        }
-    }
-    sign != 0.0
-}
-
-/// Keeps the part of a convex polygon with `z ≥ plane` (`keep_above`) or `z ≤ plane`.
-fn clip_z(poly: &[[f64; 3]], plane: f64, keep_above: bool) -> Vec<[f64; 3]> {
-    let inside = |p: &[f64; 3]| {
-        if keep_above {
-            p[2] >= plane
-        } else {
-            p[2] <= plane
-        }
-    };
-    let mut out = Vec::with_capacity(poly.len() + 1);
-    for i in 0..poly.len() {
-        let a = poly[i];
-        let b = poly[(i + 1) % poly.len()];
-        let (ia, ib) = (inside(&a), inside(&b));
-        if ia {
-            out.push(a);
-        }
-        if ia != ib {
-            let t = (plane - a[2]) / (b[2] - a[2]);
-            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), plane]);
-        }
-    }
-    out
-}
-
-/// Squared distance from the origin to segment `ab` in the plane.
-fn segment_origin_dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        ((-a[0] * d[0] - a[1] * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let p = [a[0] + t * d[0], a[1] + t * d[1]];
-    p[0] * p[0] + p[1] * p[1]
 }
 
 /// Test and bench geometry: axis-aligned boxes as closed triangle meshes.

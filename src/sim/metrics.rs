@@ -4,6 +4,7 @@
 
 use crate::map::Map;
 use crate::scene::GroundTruth;
+use crate::sim::observable::ObservableSet;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -107,52 +108,67 @@ pub struct CurveSample {
     pub completeness: f64,
 }
 
-/// Explored volume, counted incrementally: a voxel counts once, when it first becomes known, if it
-/// lies in the height band and its column is in the explorable region.
+/// Explored volume and completeness, counted incrementally: a voxel counts once, when it first
+/// becomes known, if it lies in the height band (ε); it also counts towards completeness if it is
+/// observable (see [`ObservableSet`]).
 pub struct ExploredVolume {
-    known_in_region: u64,
-    region_voxels: u64,
+    known_in_band: u64,
+    known_observable: u64,
+    observable_voxels: u64,
     voxel_volume: f64,
     band: std::ops::Range<usize>,
 }
 
 impl ExploredVolume {
-    pub fn new(gt: &GroundTruth) -> Self {
-        let band = gt.band_layers();
+    pub fn new(gt: &GroundTruth, observable: &ObservableSet) -> Self {
         ExploredVolume {
-            known_in_region: 0,
-            region_voxels: (gt.region_cells() * band.len()) as u64,
+            known_in_band: 0,
+            known_observable: 0,
+            observable_voxels: observable.voxels() as u64,
             voxel_volume: gt.grid.voxel_volume(),
-            band,
+            band: gt.band_layers(),
         }
     }
 
     /// Counts the voxels a frame made known.
-    pub fn add(&mut self, gt: &GroundTruth, newly_known: &[u32]) {
+    pub fn add(&mut self, gt: &GroundTruth, observable: &ObservableSet, newly_known: &[u32]) {
         for &v in newly_known {
-            let (cell, layer) = gt.grid.voxel_parts(v as usize);
-            if self.band.contains(&layer) && gt.in_region(cell) {
-                self.known_in_region += 1;
+            let (_, layer) = gt.grid.voxel_parts(v as usize);
+            if self.band.contains(&layer) {
+                self.known_in_band += 1;
+                self.known_observable += observable.contains(v as usize) as u64;
             }
         }
     }
 
+    /// ε: known voxels in the height band, m³.
     pub fn volume_m3(&self) -> f64 {
-        self.known_in_region as f64 * self.voxel_volume
+        self.known_in_band as f64 * self.voxel_volume
     }
 
+    /// Known observable voxels over all observable voxels (0 when nothing is observable).
     pub fn completeness(&self) -> f64 {
-        if self.region_voxels == 0 {
+        if self.observable_voxels == 0 {
             0.0
         } else {
-            self.known_in_region as f64 / self.region_voxels as f64
+            self.known_observable as f64 / self.observable_voxels as f64
+        }
+    }
+
+    /// Share of the known band voxels that the observable set does not hold: how much the sampling
+    /// of the observable set missed (0 when nothing is known).
+    pub fn outside_observable_fraction(&self) -> f64 {
+        if self.known_in_band == 0 {
+            0.0
+        } else {
+            (self.known_in_band - self.known_observable) as f64 / self.known_in_band as f64
         }
     }
 }
 
-/// Observed ground-truth surface voxels (known in the map) over all of them in the region.
-pub fn surface_coverage(gt: &GroundTruth, map: &Map) -> f64 {
-    let surface = gt.surface_voxels();
+/// Observed surface voxels (known in the map) over the observable surface voxels.
+pub fn surface_coverage(observable: &ObservableSet, map: &Map) -> f64 {
+    let surface = observable.surface_voxels();
     if surface.is_empty() {
         return 0.0;
     }
@@ -174,9 +190,19 @@ pub struct RunResult {
     pub termination: Termination,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub error: Option<String>,
+    /// Known observable voxels ÷ observable voxels.
     pub completeness: f64,
+    /// ε: known voxels in the height band, m³.
     pub explored_volume_m3: f64,
-    pub explorable_volume_m3: f64,
+    /// The voxels the camera could observe from the reachable region, m³: completeness's ceiling.
+    #[serde(default)]
+    pub observable_volume_m3: f64,
+    /// Floor area the robot can reach from its start, m².
+    #[serde(default)]
+    pub reachable_area_m2: f64,
+    /// Share of the explored voxels outside the observable set (sampling misses; should be ≈ 0).
+    #[serde(default)]
+    pub explored_outside_observable_fraction: f64,
     pub surface_coverage: f64,
     pub path_length_m: f64,
     pub sim_time_s: f64,

@@ -4,8 +4,10 @@ use super::metrics::{
     surface_coverage, CurveSample, ExploredVolume, RunResult, StageTimes, Termination,
 };
 use super::motion::{MotionExecutor, MotionStatus};
+use super::observable::{CacheOutcome, ObservableCache, ObservableSet};
 use super::robot::Robot;
 use crate::config::Config;
+use crate::config::SpawnMode;
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
@@ -14,6 +16,9 @@ use crate::scene::{GroundTruth, Scene};
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
 use crate::{Pose2, Result};
 use nalgebra::Point2;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// What an observer sees after each step (for progress bars and logs).
@@ -61,19 +66,79 @@ pub struct RunOutput {
     pub ground_truth: GroundTruth,
 }
 
-/// The world a run happens in: the scene's ground truth and its ray-casting structure, built once.
+/// The world a run happens in: the scene's ground truth, its ray-casting structure and what the
+/// camera could observe in it, built once.
 pub struct World {
     pub ground_truth: GroundTruth,
     pub bvh: MeshBvh,
+    pub observable: Arc<ObservableSet>,
+    /// Where the observable set came from (cache hit, computed, repaired).
+    pub observable_source: CacheOutcome,
 }
 
+/// Stream of the run's ChaCha generator that draws a random start: separate from every planner's
+/// draws, so a seed gives the same start whichever planner runs.
+const SPAWN_STREAM: u64 = 0x7370_6177_6e;
+
 impl World {
-    /// Voxelises the scene and builds its BVH; `spawn` overrides the scene's own spawn.
+    /// Voxelises the scene, builds its BVH and computes the observable set without a disk cache;
+    /// `spawn` overrides the scene's own spawn (see [`World::with_cache`]).
     pub fn new(scene: &Scene, cfg: &Config, spawn: Option<Pose2>) -> Result<World> {
+        Self::with_cache(scene, cfg, spawn, &ObservableCache::none())
+    }
+
+    /// [`World::new`] with the observable set read from (or written to) `cache`. With
+    /// `sim.spawn = "random"` the start is drawn from the run's seed, uniformly over the cells of the
+    /// reachable region of the scene's own spawn that keep `sim.random_spawn_margin_m` beyond the
+    /// inflation radius, with a uniform heading.
+    pub fn with_cache(
+        scene: &Scene,
+        cfg: &Config,
+        spawn: Option<Pose2>,
+        cache: &ObservableCache,
+    ) -> Result<World> {
+        if cfg.sim.spawn == SpawnMode::Random && spawn.is_some() {
+            return Err(crate::Error::usage(
+                "an explicit start pose and `sim.spawn = \"random\"` exclude each other",
+            ));
+        }
         let ground_truth = GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
-        Ok(World { ground_truth, bvh })
+        let (observable, observable_source) = cache.get_or_compute(scene, &ground_truth, &bvh, cfg);
+        let ground_truth = match cfg.sim.spawn {
+            SpawnMode::Scene => ground_truth,
+            SpawnMode::Random => {
+                let pose = random_spawn(&ground_truth, cfg, &scene.name)?;
+                ground_truth.with_spawn(pose)?
+            }
+        };
+        Ok(World {
+            ground_truth,
+            bvh,
+            observable: Arc::new(observable),
+            observable_source,
+        })
     }
+}
+
+/// A start drawn from the run's seed (see [`World::with_cache`]).
+fn random_spawn(gt: &GroundTruth, cfg: &Config, scene: &str) -> Result<Pose2> {
+    let margin = cfg.sim.random_spawn_margin_m;
+    let cells = gt.spawn_candidates(margin);
+    if cells.is_empty() {
+        return Err(crate::Error::usage(format!(
+            "{scene}: no reachable cell keeps {:.2} m from every obstacle for a random start (inflation radius {:.2} m + sim.random_spawn_margin_m {:.2} m)",
+            gt.inflation_m() + margin,
+            gt.inflation_m(),
+            margin
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    rng.set_stream(SPAWN_STREAM);
+    let cell = cells[rng.random_range(0..cells.len())];
+    let yaw = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+    let p = gt.grid.center(gt.grid.cell(cell));
+    Ok(Pose2::new(p.x, p.y, yaw))
 }
 
 /// Runs one exploration of `scene` with `planner` until it completes, spends its budget or gets stuck.
@@ -100,6 +165,8 @@ pub fn run_planner(
     let World {
         ground_truth: gt,
         bvh,
+        observable,
+        ..
     } = world;
     let grid = gt.grid;
     let mut map = Map::new(grid, cfg);
@@ -108,7 +175,7 @@ pub fn run_planner(
     let mut robot = Robot::new(gt.spawn, &cfg.robot);
     let mut motion = MotionExecutor::new(cfg);
     let mut search = Search::new(&grid);
-    let mut explored = ExploredVolume::new(&gt);
+    let mut explored = ExploredVolume::new(&gt, &observable);
     let mut times = StageTimes::default();
     let mut curve = Vec::new();
     let mut trajectory = vec![robot.pose];
@@ -164,7 +231,7 @@ pub fn run_planner(
         // Map.
         if fired {
             let update = map.integrate(&frame);
-            explored.add(&gt, &update.newly_known);
+            explored.add(&gt, &observable, &update.newly_known);
         }
         map.clear_footprint(robot.pose.x, robot.pose.y, cfg.robot.radius_m);
         let t2 = Instant::now();
@@ -306,8 +373,10 @@ pub fn run_planner(
         error,
         completeness: explored.completeness(),
         explored_volume_m3: explored.volume_m3(),
-        explorable_volume_m3: gt.explorable_volume_m3(),
-        surface_coverage: surface_coverage(&gt, &map),
+        observable_volume_m3: observable.volume_m3(),
+        reachable_area_m2: gt.reachable_area_m2(),
+        explored_outside_observable_fraction: explored.outside_observable_fraction(),
+        surface_coverage: surface_coverage(&observable, &map),
         path_length_m: robot.path_length_m,
         sim_time_s,
         wall_time_s,
