@@ -173,8 +173,12 @@ mod tests {
             |_| 0.0,
         );
         assert_eq!(clear.reading("shorter", "longer"), "shorter");
-        let higher = PairedDiff::of(&[(0.9, 0.8), (0.95, 0.8)], Better::Higher, |_| 0.0);
-        assert_eq!((higher.wins, higher.losses), (2, 0));
+        let higher = PairedDiff::of(
+            &[(0.9, 0.8), (0.91, 0.8), (0.92, 0.8)],
+            Better::Higher,
+            |_| 0.0,
+        );
+        assert_eq!((higher.wins, higher.losses), (3, 0));
         assert_eq!(higher.reading("lower", "higher"), "higher");
     }
 }

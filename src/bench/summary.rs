@@ -524,7 +524,7 @@ mod tests {
         assert_eq!(greedy.tsp_ms, None);
         let md = s.to_markdown();
         let section = md.split("## TSP time per planning step").nth(1).unwrap();
-        let section = section.split("## Verdict").next().unwrap();
+        let section = section.split("\n## ").next().unwrap();
         assert!(
             section.contains("| a | thp | 2.000 | 1.000 | 4.000 | 10 |"),
             "{md}"

@@ -227,14 +227,19 @@ impl VoxelCaster<'_> {
             .min(p.max_range_m as f64);
         let (o, d) = (origin.cast::<f64>(), dir.cast::<f64>());
         let mut best = f32::INFINITY;
-        traverse_while(self.grid, o, d, cut, |v, _, t_out| {
-            buf.push(v);
+        traverse_while(self.grid, o, d, cut, |v, t_in, t_out| {
             if self.gt.occupied(v) {
                 let tris = self.lists.of(v);
                 if let Some(t) = self.bvh.cast_among(origin, dir, tris, p.max_range_m) {
                     best = best.min(t);
                 }
             }
+            // A face on this voxel's entry face can lie a hair before it in world coordinates (the
+            // voxelisation is half-open): the map's ray ends there and never enters this voxel.
+            if best as f64 <= t_in {
+                return false;
+            }
+            buf.push(v);
             // A hit found in an earlier voxel's triangles may lie further on: stop only once the
             // walk has reached it.
             (best as f64) > t_out
@@ -509,4 +514,239 @@ fn write_atomic(dir: &Path, path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         Error::io(path, e)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::Occupancy;
+    use crate::scene::Scene;
+    use crate::sensor::raycast::testing::{furnished_room, push_box};
+    use crate::Pose2;
+
+    fn scene(mesh: crate::scene::TriMesh) -> Scene {
+        Scene {
+            name: "test".into(),
+            path: "test.obj".into(),
+            mesh,
+            spawn: None,
+            content_hash: "test".into(),
+            floor_z: 0.0,
+            source: "obj".into(),
+        }
+    }
+
+    /// A 6 × 6 m room (inside x, y ∈ [0.1, 6.1]) with a table, plus a 3 × 2 m closet east of it
+    /// (x ∈ [6.2, 9.2], y ∈ [0.1, 2.1]) behind a 0.5 m door (y ∈ [0.8, 1.3]) in the 0.1 m wall: the
+    /// door is narrower than the inflated robot, so the closet is observable through it but not
+    /// reachable.
+    fn room_with_closet() -> crate::scene::TriMesh {
+        let (nx, ny) = (94, 63);
+        let solid: Vec<bool> = (0..nx * ny)
+            .map(|i| {
+                let (x, y) = (i % nx, i / nx);
+                let room = (1..61).contains(&x) && (1..61).contains(&y);
+                let closet = (62..92).contains(&x) && (1..21).contains(&y);
+                let door = x == 61 && (8..13).contains(&y);
+                !(room || closet || door)
+            })
+            .collect();
+        let mut mesh = crate::scene::extrude::extrude_grid(&solid, nx, ny, [0.0, 0.0], 0.1, 2.5);
+        push_box(&mut mesh, [2.0, 4.0, 0.0], [3.0, 5.0, 0.75]);
+        mesh
+    }
+
+    #[test]
+    fn rays_mark_what_the_map_integrates() {
+        // Every band voxel a frame makes known in the map, and no other, is what the caster marks.
+        let cfg = Config::default();
+        let mesh = furnished_room(6.0);
+        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let camera = DepthCamera::new(&cfg.camera);
+        let p = ObservableParams::from_config(&cfg);
+        let band = gt.band_layers();
+        let caster = VoxelCaster {
+            grid: &gt.grid,
+            gt: &gt,
+            lists: gt.voxel_triangles(),
+            bvh: &bvh,
+            band: (
+                band.start as f64 * gt.grid.res,
+                band.end as f64 * gt.grid.res,
+            ),
+            p: &p,
+        };
+        let in_band = |v: usize| band.contains(&gt.grid.voxel_parts(v).1);
+        let (mut total, mut differ) = (0usize, 0usize);
+        let mut buf = Vec::new();
+        for (k, pose) in [
+            Pose2::new(3.0, 3.0, 0.3),
+            Pose2::new(1.0, 4.5, -2.0),
+            Pose2::new(5.2, 5.2, 3.9),
+            Pose2::new(0.6, 0.7, 0.8),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let frame = camera.capture(&bvh, pose);
+            let mut occ = Occupancy::new(
+                gt.grid,
+                crate::map::LogOdds::from_config(&cfg.map),
+                band.clone(),
+            );
+            let mut map: Vec<u32> = occ.integrate(&frame).newly_known;
+            map.retain(|&v| in_band(v as usize));
+            let mut cast: Vec<u32> = Vec::new();
+            for d in &frame.dirs {
+                cast.extend(
+                    caster
+                        .observe(frame.origin, *d, &mut buf)
+                        .iter()
+                        .filter(|&&v| in_band(v))
+                        .map(|&v| v as u32),
+                );
+            }
+            cast.sort_unstable();
+            cast.dedup();
+            total += map.len();
+            differ += map.len() + cast.len()
+                - 2 * map.iter().filter(|v| cast.binary_search(v).is_ok()).count();
+            assert!(map.len() > 1000, "pose {k}: {} voxels", map.len());
+        }
+        // Exact agreement but for ties of floating-point rounding at voxel faces.
+        assert_eq!(differ, 0, "{differ} of {total} voxels differ");
+    }
+
+    #[test]
+    fn closet_is_observable_not_reachable() {
+        let cfg = Config::default();
+        let mesh = room_with_closet();
+        let gt = GroundTruth::build(&mesh, Some(Pose2::new(3.0, 3.0, 0.0)), &cfg).unwrap();
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let set = ObservableSet::compute(
+            &gt,
+            &bvh,
+            &DepthCamera::new(&cfg.camera),
+            &ObservableParams::from_config(&cfg),
+        );
+        let cell = |x: f64, y: f64| gt.grid.index(gt.grid.cell_at(x, y));
+        // The door (0.5 m) is narrower than 2 × 0.29 m: the closet is not reachable ...
+        assert!(gt.reachable(cell(3.0, 3.0)));
+        assert!(!gt.reachable(cell(6.15, 1.05)) && !gt.reachable(cell(7.5, 1.0)));
+        // ... but the camera sees into it through the door, and not into its corners beside the
+        // door, hidden behind the wall from every reachable pose.
+        assert!(set.column_observable(&gt, cell(7.5, 1.05)));
+        assert!(!set.column_observable(&gt, cell(6.25, 0.15)));
+        // Reachable floor: the room's inside less a band of the inflation radius along its walls
+        // and around the table: (6 − 2·0.3)² − (1 + 2·0.3)² ≈ 26.6 m², to a cell.
+        let area = gt.reachable_area_m2();
+        assert!((area - 26.6).abs() < 1.5, "{area}");
+        // Observable: at most the room's and closet's band volume plus their walls' faces.
+        let v = set.volume_m3();
+        assert!(
+            v > 0.9 * 36.0 * 1.7 && v < (6.2 * 6.2 + 3.2 * 2.2) * 1.7,
+            "{v}"
+        );
+    }
+
+    #[test]
+    fn cache_round_trip_and_damage() {
+        let cfg = Config::default();
+        let mesh = furnished_room(5.0);
+        let scene = scene(mesh.clone());
+        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let cache = ObservableCache::at(dir.path());
+        let (fresh, how) = ObservableCache::none().get_or_compute(&scene, &gt, &bvh, &cfg);
+        assert_eq!(how, CacheOutcome::Uncached(None));
+        let (first, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+        let CacheOutcome::Computed(path) = how else {
+            panic!("{how:?}")
+        };
+        assert_eq!(first, fresh);
+        let (hit, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+        assert_eq!(how, CacheOutcome::Hit(path.clone()));
+        assert_eq!(hit, fresh);
+        // A truncated file, a flipped byte and a file of another key are each found, recomputed and
+        // reported; the set is the fresh one every time.
+        let good = std::fs::read(&path).unwrap();
+        let mut flipped = good.clone();
+        flipped[good.len() / 2] ^= 0x10;
+        let mut other = good.clone();
+        other[8] ^= 1; // the key, with a checksum that matches
+        let n = other.len();
+        let sum = fnv1a64(&other[..n - 8]).to_le_bytes();
+        other[n - 8..].copy_from_slice(&sum);
+        for (bytes, why) in [
+            (&good[..good.len() - 9], "bytes, expected"),
+            (&flipped[..], "checksum mismatch"),
+            (&other[..], "written for another scene or config"),
+            (&b""[..], "0 bytes"),
+        ] {
+            std::fs::write(&path, bytes).unwrap();
+            let (set, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+            assert_eq!(set, fresh);
+            let CacheOutcome::Repaired(p, reason) = &how else {
+                panic!("{how:?}")
+            };
+            assert_eq!(p, &path);
+            assert!(reason.contains(why), "{reason}");
+            assert!(how.warning().unwrap().contains("was damaged"));
+            assert_eq!(std::fs::read(&path).unwrap(), good);
+        }
+        // Another sampling is another file.
+        let mut coarse = cfg.clone();
+        coarse.metrics.observable_spacing_m = 1.0;
+        assert_ne!(
+            ObservableCache::key("test", &gt, &cfg),
+            ObservableCache::key("test", &gt, &coarse)
+        );
+    }
+
+    #[test]
+    fn set_does_not_depend_on_thread_count() {
+        let cfg = Config::default();
+        let mesh = room_with_closet();
+        let gt = GroundTruth::build(&mesh, Some(Pose2::new(3.0, 3.0, 0.0)), &cfg).unwrap();
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let compute = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    ObservableSet::compute(
+                        &gt,
+                        &bvh,
+                        &DepthCamera::new(&cfg.camera),
+                        &ObservableParams::from_config(&cfg),
+                    )
+                })
+        };
+        assert_eq!(compute(1), compute(2));
+    }
+
+    #[test]
+    fn every_reachable_patch_gets_a_position() {
+        // A 1-cell-wide reachable corridor and an isolated cell: sampled although they cross no
+        // lattice point.
+        let grid = GridSpec::covering(
+            nalgebra::Point2::new(0.0, 0.0),
+            nalgebra::Point2::new(2.0, 2.0),
+            1.0,
+            0.1,
+        );
+        let mut reach = vec![false; grid.cells()];
+        for x in 2..18 {
+            reach[grid.index(Cell::new(x, 7))] = true;
+        }
+        reach[grid.index(Cell::new(13, 13))] = true;
+        let pos = sample_positions(&grid, &reach, 0.5);
+        // Corridor cells 2..18 fall in blocks x 0..5, 5..10, 10..15, 15..20: one each; plus the cell.
+        assert_eq!(pos.len(), 5, "{pos:?}");
+        assert!(pos.contains(&grid.index(Cell::new(13, 13))));
+        assert!(pos.iter().all(|&c| reach[c]));
+    }
 }
