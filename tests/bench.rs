@@ -2,6 +2,8 @@
 //! interruption, failed rows, and the output files. Short runs (`sim.budget_s=30`) on two small
 //! shipped scenes keep them fast.
 
+mod common;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -36,6 +38,7 @@ fn bench(out: &Path, extra: &[&str]) -> Output {
     ];
     args.extend_from_slice(extra);
     Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+        .env("TENSORSCOUT_CACHE_DIR", common::cache_dir())
         .args(&args)
         .output()
         .unwrap()
@@ -115,7 +118,7 @@ fn same_rows_whatever_the_jobs_and_outputs_parse() {
     assert_eq!(summary["cells"][0]["r_epsilon"], 1.0);
     let md = read(&one, "summary.md");
     assert!(md.contains("| apartment_small | greedy | 2 |"), "{md}");
-    assert!(md.contains("- **greedy**: mean completeness"), "{md}");
+    assert!(md.contains("- **greedy**: completeness"), "{md}");
     for stem in ["apartment_small", "office_small"] {
         for kind in ["volume_vs_path", "completeness_vs_time"] {
             let png = one.join("plots").join(format!("{stem}_{kind}.png"));
@@ -134,6 +137,7 @@ fn shards_merged_equal_the_whole_batch() {
     assert_ok(&bench(&p("s2"), &["--shard", "2/2"]));
     assert_eq!(rows(&p("s1")).len(), 2);
     let o = Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+        .env("TENSORSCOUT_CACHE_DIR", common::cache_dir())
         .args(["bench", "merge"])
         .args([p("s1"), p("s2")])
         .arg("--out")
@@ -194,6 +198,7 @@ fn a_bad_scene_is_a_failed_row_for_every_planner() {
     let out = t.path().join("out");
     let bad_s = bad.display().to_string();
     let o = Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+        .env("TENSORSCOUT_CACHE_DIR", common::cache_dir())
         .args([
             "bench",
             "--scenes",
@@ -253,10 +258,76 @@ fn log_runs_writes_one_verifiable_log_per_run() {
     assert_eq!(logs.len(), rows.lines().count());
     for log in logs {
         let r = Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+            .env("TENSORSCOUT_CACHE_DIR", common::cache_dir())
             .args(["replay", log.to_str().unwrap(), "--verify"])
             .output()
             .unwrap();
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
         assert!(String::from_utf8_lossy(&r.stdout).contains("identical"));
     }
+}
+
+/// With several seeds each seed draws its own start, the same for every planner; the summary has
+/// confidence intervals and the paired comparison; rows do not depend on the observable-set cache
+/// (a cold cache and a warm one give the same rows); `--scene-spawn` keeps the scene's spawn.
+#[test]
+fn seeds_pair_starts_across_planners() {
+    let t = tmp();
+    let a = scene("apartment_small.obj");
+    let run = |out: &Path, cache: &Path, extra: &[&str]| {
+        let out_s = out.display().to_string();
+        let mut args = vec![
+            "bench",
+            "--scenes",
+            &a,
+            "--planners",
+            "thp,greedy",
+            "--seeds",
+            "3",
+            "--set",
+            "sim.budget_s=20",
+            "--out",
+            &out_s,
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+            .env("TENSORSCOUT_CACHE_DIR", cache)
+            .args(&args)
+            .output()
+            .unwrap()
+    };
+    let cold = t.path().join("cache");
+    let (first, second) = (t.path().join("first"), t.path().join("second"));
+    assert_ok(&run(&first, &cold, &[]));
+    assert!(cold.join("observable").read_dir().unwrap().count() == 1);
+    assert_ok(&run(&second, &cold, &[]));
+    assert_eq!(rows(&first), rows(&second));
+    let r = rows(&first);
+    assert_eq!(r.len(), 6);
+    let start = |planner: &str, seed: u64| {
+        r.iter()
+            .find(|v| v["planner"] == planner && v["seed"] == seed)
+            .map(|v| v["result"]["spawn"].clone())
+            .unwrap()
+    };
+    let starts: Vec<Value> = (1..=3).map(|s| start("greedy", s)).collect();
+    for (i, s) in starts.iter().enumerate() {
+        assert_eq!(*s, start("thp", i as u64 + 1));
+        assert!(starts.iter().filter(|o| *o == s).count() == 1, "{starts:?}");
+    }
+    let md = read(&first, "summary.md");
+    assert!(md.contains("Student-t 95 %"), "{md}");
+    assert!(
+        md.contains("## Paired comparison against thp") && md.contains("| greedy | 3 |"),
+        "{md}"
+    );
+    assert!(md.contains("Against thp over 3 pairs: path "), "{md}");
+    // --scene-spawn: every run starts at the scene's own spawn.
+    let kept = t.path().join("kept");
+    assert_ok(&run(&kept, &cold, &["--scene-spawn"]));
+    let k = rows(&kept);
+    assert!(k
+        .iter()
+        .all(|v| v["result"]["spawn"] == k[0]["result"]["spawn"]));
 }

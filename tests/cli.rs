@@ -1,11 +1,15 @@
 //! The command-line contract: exit codes, one-line errors naming the culprit, JSON keys, and
 //! determinism of whole runs.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tensorscout"));
+    c.env("TENSORSCOUT_CACHE_DIR", common::cache_dir());
+    c
 }
 
 fn run(args: &[&str]) -> Output {
@@ -231,7 +235,10 @@ fn explore_json_has_the_contract_keys_and_is_deterministic() {
         "termination",
         "completeness",
         "explored_volume_m3",
-        "explorable_volume_m3",
+        "observable_volume_m3",
+        "reachable_area_m2",
+        "explored_outside_observable_fraction",
+        "unseen_observable",
         "surface_coverage",
         "path_length_m",
         "sim_time_s",

@@ -1,11 +1,15 @@
 //! Run logs end to end: write, replay, verify, damaged files, interruption, and an independent read
 //! with the Python `mcap` package when it is installed.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tensorscout"));
+    c.env("TENSORSCOUT_CACHE_DIR", common::cache_dir());
+    c
 }
 
 fn stderr(o: &Output) -> String {

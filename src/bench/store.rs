@@ -176,7 +176,10 @@ pub fn flat_row(row: &BenchRow) -> Vec<(String, String)> {
     if let Some(r) = &row.result {
         let mut v = serde_json::to_value(r).unwrap_or(Value::Null);
         if let Value::Object(m) = &mut v {
+            // Lists do not flatten into columns: the curve is in curves.csv, the unseen patches in
+            // results.jsonl.
             m.remove("curve");
+            m.remove("unseen_observable");
             // Already in the key columns.
             for dup in ["planner", "seed", "config_hash", "scene_hash", "error"] {
                 m.remove(dup);

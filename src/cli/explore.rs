@@ -187,6 +187,21 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             100.0 * r.explored_outside_observable_fraction
         );
         println!("surface        {:.3}", r.surface_coverage);
+        for p in &r.unseen_observable {
+            println!(
+                "  unseen {:.2} m³ around ({:.1}, {:.1}), {:.1}–{:.1} m high{}",
+                p.volume_m3,
+                p.x,
+                p.y,
+                p.z_min_m,
+                p.z_max_m,
+                if p.over_reachable_floor {
+                    ""
+                } else {
+                    ", not over reachable floor"
+                }
+            );
+        }
         println!("path length    {:.1} m", r.path_length_m);
         println!(
             "time           {:.1} s simulated, {:.2} s wall, {:.0}× real time",

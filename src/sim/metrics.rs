@@ -179,6 +179,90 @@ pub fn surface_coverage(observable: &ObservableSet, map: &Map) -> f64 {
     seen as f64 / surface.len() as f64
 }
 
+/// A connected patch of observable voxels that the run left unseen (columns 8-connected on the floor
+/// plan): where the observable region still holds something, and how much.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnseenPatch {
+    /// Centroid of the patch's columns, metres.
+    pub x: f64,
+    pub y: f64,
+    pub volume_m3: f64,
+    /// Lowest and highest unseen voxel, metres above the floor (voxel bottoms and tops).
+    pub z_min_m: f64,
+    pub z_max_m: f64,
+    /// Whether some column of the patch is reachable floor (else it lies over furniture, walls or
+    /// floor the robot cannot stand on).
+    pub over_reachable_floor: bool,
+}
+
+/// Patches reported per run, largest first.
+pub const UNSEEN_PATCHES: usize = 5;
+
+/// The largest patches of observable voxels that `map` does not know, largest first (at most
+/// [`UNSEEN_PATCHES`]).
+pub fn unseen_patches(gt: &GroundTruth, observable: &ObservableSet, map: &Map) -> Vec<UnseenPatch> {
+    let grid = gt.grid;
+    let cells = grid.cells();
+    // Unseen voxels per column, with their layer range.
+    let mut count = vec![0u32; cells];
+    let mut layers = vec![(u32::MAX, 0u32); cells];
+    for iz in gt.band_layers() {
+        for c in 0..cells {
+            let v = iz * cells + c;
+            if observable.contains(v) && !map.is_voxel_known(v) {
+                count[c] += 1;
+                layers[c].0 = layers[c].0.min(iz as u32);
+                layers[c].1 = layers[c].1.max(iz as u32);
+            }
+        }
+    }
+    let mut seen = vec![false; cells];
+    let mut patches = Vec::new();
+    for start in 0..cells {
+        if count[start] == 0 || seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        let mut stack = vec![start];
+        let (mut n, mut sx, mut sy, mut lo, mut hi, mut reach) =
+            (0u64, 0.0, 0.0, u32::MAX, 0, false);
+        while let Some(i) = stack.pop() {
+            let p = grid.center(grid.cell(i));
+            n += count[i] as u64;
+            sx += p.x * count[i] as f64;
+            sy += p.y * count[i] as f64;
+            lo = lo.min(layers[i].0);
+            hi = hi.max(layers[i].1);
+            reach |= gt.reachable(i);
+            let c = grid.cell(i);
+            for (dx, dy) in crate::grid::NEIGHBOURS_8 {
+                if let Some(j) = grid.checked_index(crate::grid::Cell::new(c.x + dx, c.y + dy)) {
+                    if count[j] > 0 && !seen[j] {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        patches.push(UnseenPatch {
+            x: sx / n as f64,
+            y: sy / n as f64,
+            volume_m3: n as f64 * grid.voxel_volume(),
+            z_min_m: lo as f64 * grid.res,
+            z_max_m: (hi + 1) as f64 * grid.res,
+            over_reachable_floor: reach,
+        });
+    }
+    patches.sort_by(|a, b| {
+        b.volume_m3
+            .total_cmp(&a.volume_m3)
+            .then(a.x.total_cmp(&b.x))
+            .then(a.y.total_cmp(&b.y))
+    });
+    patches.truncate(UNSEEN_PATCHES);
+    patches
+}
+
 /// Everything `explore --json` prints.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RunResult {
@@ -204,6 +288,9 @@ pub struct RunResult {
     #[serde(default)]
     pub explored_outside_observable_fraction: f64,
     pub surface_coverage: f64,
+    /// The largest patches of the observable set left unseen at the end (see [`UnseenPatch`]).
+    #[serde(default)]
+    pub unseen_observable: Vec<UnseenPatch>,
     pub path_length_m: f64,
     pub sim_time_s: f64,
     pub wall_time_s: f64,

@@ -1,7 +1,8 @@
 //! The step loop: sense → map → field → plan → motion → collision check → metrics, at a fixed `dt`.
 
 use super::metrics::{
-    surface_coverage, CurveSample, ExploredVolume, RunResult, StageTimes, Termination,
+    surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult, StageTimes,
+    Termination,
 };
 use super::motion::{MotionExecutor, MotionStatus};
 use super::observable::{CacheOutcome, ObservableCache, ObservableSet};
@@ -377,6 +378,7 @@ pub fn run_planner(
         reachable_area_m2: gt.reachable_area_m2(),
         explored_outside_observable_fraction: explored.outside_observable_fraction(),
         surface_coverage: surface_coverage(&observable, &map),
+        unseen_observable: unseen_patches(&gt, &observable, &map),
         path_length_m: robot.path_length_m,
         sim_time_s,
         wall_time_s,

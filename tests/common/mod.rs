@@ -14,3 +14,14 @@ pub fn shipped_scenes() -> Vec<PathBuf> {
     assert!(scenes.len() >= 8, "expected at least 8 shipped scenes");
     scenes
 }
+
+/// The observable-set cache the scenario tests share (under the build's temporary folder, so it
+/// survives between test runs and is never the user's own cache).
+pub fn cache_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("tensorscout-cache")
+}
+
+#[allow(dead_code)]
+pub fn cache() -> tensorscout::sim::ObservableCache {
+    tensorscout::sim::ObservableCache::at(cache_dir().join("observable"))
+}

@@ -1,0 +1,31 @@
+//! The observable set of a scene (`sim::observable`): the ground truth's ray sampling over the
+//! reachable region, for a small and the largest shipped scene, without the disk cache.
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::path::Path;
+use std::time::Duration;
+use tensorscout::scene::{self, GroundTruth};
+use tensorscout::sensor::{DepthCamera, MeshBvh};
+use tensorscout::sim::observable::{ObservableParams, ObservableSet};
+use tensorscout::Config;
+
+fn observable(c: &mut Criterion) {
+    let cfg = Config::default();
+    let mut g = c.benchmark_group("observable_set");
+    g.sample_size(10);
+    g.measurement_time(Duration::from_secs(30));
+    for name in ["apartment_small", "office_large"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.obj"));
+        let scene = scene::load(&path, &cfg.scene).unwrap();
+        let gt = GroundTruth::build(&scene.mesh, scene.spawn, &cfg).unwrap();
+        let bvh = MeshBvh::new(&scene.mesh).unwrap();
+        let camera = DepthCamera::new(&cfg.camera);
+        let params = ObservableParams::from_config(&cfg);
+        g.bench_function(name, |b| {
+            b.iter(|| ObservableSet::compute(&gt, &bvh, &camera, &params))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, observable);
+criterion_main!(benches);
