@@ -338,6 +338,10 @@ pub struct ObservableCache {
 /// FNV-1a checksum of everything before it.
 const MAGIC: &[u8; 8] = b"TSOBS01\n";
 
+/// Revision of the computation, part of every key: bump it whenever the sampling, the sensor model
+/// or the traversal changes, so that no cache file of an older computation is ever read.
+const REVISION: u32 = 2;
+
 impl ObservableCache {
     /// The cache in the user's cache folder (see the type doc); `None` folder when no home is known.
     pub fn user() -> ObservableCache {
@@ -381,7 +385,7 @@ impl ObservableCache {
     pub fn key(scene_hash: &str, gt: &GroundTruth, cfg: &Config) -> u64 {
         let reach: Vec<u8> = gt.reachable_mask().iter().map(|&r| r as u8).collect();
         let text = format!(
-            "observable v1|{scene_hash}|{:?}|{:016x}|{:?}|{}|{}|{}",
+            "observable r{REVISION}|{scene_hash}|{:?}|{:016x}|{:?}|{}|{}|{}",
             gt.grid,
             fnv1a64(&reach),
             gt.band_layers(),
