@@ -247,6 +247,29 @@ fn non_negative(key: &str, v: f64) -> Result<()> {
     }
 }
 
+/// Fails unless `lo <= v <= hi` (a finite number), naming `key` and the bound. Bounds on values that
+/// cost time or memory; each is stated in `configs/default.toml`'s comment for the key.
+fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must lie in [{lo}, {hi}], got {v}"
+        )))
+    }
+}
+
+/// Fails unless the count `v` lies in `lo..=hi`, naming `key` and the bound.
+fn count_within(key: &str, v: u64, lo: u64, hi: u64) -> Result<()> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must lie in {lo}..={hi}, got {v}"
+        )))
+    }
+}
+
 impl ThpConfig {
     fn validate(&self) -> Result<()> {
         for (key, v) in [
@@ -262,6 +285,7 @@ impl ThpConfig {
             positive(key, v)?;
         }
         non_negative("thp.view_distance_m", self.view_distance_m)?;
+        within("thp.field_period_s", self.field_period_s, 0.01, 1e6)?;
         if !(1..=20).contains(&self.exact_tsp_max_nodes) {
             return Err(Error::usage(format!(
                 "config key `thp.exact_tsp_max_nodes` must lie in 1..=20 (Held–Karp needs 2^n memory), got {}",
@@ -284,11 +308,12 @@ impl TensorConfig {
         }
         non_negative("tensor.wall_clearance_m", self.wall_clearance_m)?;
         non_negative("tensor.look_spacing_m", self.look_spacing_m)?;
-        if self.advect_substeps == 0 {
-            return Err(Error::usage(
-                "config key `tensor.advect_substeps` must be at least 1, got 0",
-            ));
-        }
+        count_within(
+            "tensor.advect_substeps",
+            self.advect_substeps as u64,
+            1,
+            1000,
+        )?;
         Ok(())
     }
 }
@@ -322,6 +347,22 @@ impl NbvConfig {
                 )));
             }
         }
+        for (key, v, lo, hi) in [
+            ("nbv.max_viewpoints", self.max_viewpoints, 1, 10_000),
+            ("nbv.gain_ray_stride", self.gain_ray_stride, 1, 4096),
+            ("nbv.ga_population", self.ga_population, 1, 100_000),
+            ("nbv.ga_group_size", self.ga_group_size, 1, 100_000),
+            ("nbv.ga_generations", self.ga_generations, 0, 1_000_000),
+            (
+                "nbv.ga_stall_generations",
+                self.ga_stall_generations,
+                0,
+                1_000_000,
+            ),
+            ("nbv.min_misses", self.min_misses, 0, 1_000_000_000),
+        ] {
+            count_within(key, v as u64, lo, hi)?;
+        }
         if self.ga_group_size > self.ga_population {
             return Err(Error::usage(format!(
                 "config key `nbv.ga_group_size` ({}) must not exceed `nbv.ga_population` ({})",
@@ -351,7 +392,16 @@ impl Config {
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
         let mut tree = default_tree();
         if let Some(path) = file {
-            let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+            // A regular file of at most 16 MiB; text that is not UTF-8 (a binary file given by
+            // mistake) is a usage error like any other unparsable config.
+            let bytes = crate::util::read_regular_file(path, 16 << 20)?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                Error::usage(format!(
+                    "{}: not a TOML config (not UTF-8 text at byte {})",
+                    path.display(),
+                    e.utf8_error().valid_up_to()
+                ))
+            })?;
             let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
                 Error::usage(format!("{}: {}", path.display(), one_line(&e.to_string())))
             })?;
@@ -389,26 +439,42 @@ impl Config {
 
     /// Rejects values that are of the right type but make no sense, naming the key.
     pub fn validate(&self) -> Result<()> {
-        positive("sim.dt_s", self.sim.dt_s)?;
+        // Bounds on what costs time or memory (stated in configs/default.toml).
+        within("sim.dt_s", self.sim.dt_s, 0.001, 1.0)?;
         positive("sim.budget_s", self.sim.budget_s)?;
+        within("sim.budget_s", self.sim.budget_s, 0.0, 1e6)?;
+        if self.sim.dt_s > self.sim.budget_s {
+            return Err(Error::usage(format!(
+                "config key `sim.dt_s` ({}) must not exceed `sim.budget_s` ({}): the run would take no step",
+                self.sim.dt_s, self.sim.budget_s
+            )));
+        }
         positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
         non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
-        positive("sim.curve_interval_s", self.sim.curve_interval_s)?;
-        positive("log.map_every_s", self.log.map_every_s)?;
+        within("sim.curve_interval_s", self.sim.curve_interval_s, 0.01, 1e6)?;
+        within("log.map_every_s", self.log.map_every_s, 0.01, 1e6)?;
         if !(1..=19).contains(&self.log.zstd_level) {
             return Err(Error::usage(format!(
                 "config key `log.zstd_level` must be 1..=19, got {}",
                 self.log.zstd_level
             )));
         }
-        if self.log.chunk_size_kb == 0 {
-            return Err(Error::usage(
-                "config key `log.chunk_size_kb` must be positive, got 0",
-            ));
-        }
+        count_within("log.chunk_size_kb", self.log.chunk_size_kb, 1, 65_536)?;
         positive("scene.wall_height_m", self.scene.wall_height_m)?;
         positive("scene.max_extent_m", self.scene.max_extent_m)?;
         positive("map.voxel_m", self.map.voxel_m)?;
+        within("map.voxel_m", self.map.voxel_m, 0.01, 1.0)?;
+        // The robot may not cross more than one cell per step: motion and collision checks are
+        // per step.
+        if self.sim.dt_s * self.robot.max_speed_mps > self.map.voxel_m * (1.0 + 1e-9) {
+            return Err(Error::usage(format!(
+                "config key `sim.dt_s` ({} s) is too large: at robot.max_speed_mps = {} the robot would cross more than one {} m cell per step (at most map.voxel_m / robot.max_speed_mps = {} s)",
+                self.sim.dt_s,
+                self.robot.max_speed_mps,
+                self.map.voxel_m,
+                self.map.voxel_m / self.robot.max_speed_mps
+            )));
+        }
         non_negative("map.margin_m", self.map.margin_m)?;
         non_negative("map.band_min_m", self.map.band_min_m)?;
         positive("map.band_max_m", self.map.band_max_m)?;
@@ -454,18 +520,17 @@ impl Config {
         }
         non_negative("camera.min_range_m", c.min_range_m)?;
         positive("camera.max_range_m", c.max_range_m)?;
+        within("camera.max_range_m", c.max_range_m, 0.0, 100.0)?;
         if c.min_range_m >= c.max_range_m {
             return Err(Error::usage(
                 "config key `camera.min_range_m` must be below `camera.max_range_m`",
             ));
         }
-        if c.width == 0 || c.height == 0 {
-            return Err(Error::usage(
-                "config keys `camera.width` and `camera.height` must be at least 1",
-            ));
-        }
+        count_within("camera.width", c.width as u64, 1, 2048)?;
+        count_within("camera.height", c.height as u64, 1, 2048)?;
         positive("camera.mount_height_m", c.mount_height_m)?;
         positive("camera.rate_hz", c.rate_hz)?;
+        within("camera.rate_hz", c.rate_hz, 0.0, 1000.0)?;
         positive("robot.radius_m", self.robot.radius_m)?;
         positive("robot.height_m", self.robot.height_m)?;
         positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
@@ -515,11 +580,36 @@ impl Config {
                 f.weight_cutoff
             )));
         }
-        if f.substeps == 0 || f.topology_cell_factor == 0 {
-            return Err(Error::usage(
-                "config keys `field.substeps` and `field.topology_cell_factor` must be at least 1",
-            ));
-        }
+        within("field.d_s_m", f.d_s_m, 0.02, 10.0)?;
+        within("field.sigma_m", f.sigma_m, 0.01, 10.0)?;
+        within("field.rk4_step_m", f.rk4_step_m, 0.001, 1.0)?;
+        within("field.keyframe_period_s", f.keyframe_period_s, 0.01, 1e6)?;
+        within("field.timevary_radius_m", f.timevary_radius_m, 0.0, 50.0)?;
+        within(
+            "field.separatrix_max_length_m",
+            f.separatrix_max_length_m,
+            0.0,
+            10_000.0,
+        )?;
+        count_within("field.substeps", f.substeps as u64, 1, 1000)?;
+        count_within(
+            "field.topology_cell_factor",
+            f.topology_cell_factor as u64,
+            1,
+            16,
+        )?;
+        count_within(
+            "field.timevary_max_iterations",
+            f.timevary_max_iterations as u64,
+            0,
+            100_000,
+        )?;
+        count_within(
+            "field.cancel_max_iterations",
+            f.cancel_max_iterations as u64,
+            0,
+            100_000,
+        )?;
         self.thp.validate()?;
         self.tensor.validate()?;
         self.nbv.validate()?;
@@ -548,12 +638,14 @@ fn merge(
         } else {
             format!("{prefix}.{key}")
         };
+        // Keys are shown escaped: a key holding a newline must not break the one-line error.
+        let shown = path.escape_debug();
         match (base.get_mut(&key), value) {
-            (None, _) => return Err(format!("unknown config key `{path}`")),
+            (None, _) => return Err(format!("unknown config key `{shown}`")),
             (Some(toml::Value::Table(b)), toml::Value::Table(u)) => merge(b, u, &path)?,
             (Some(toml::Value::Table(_)), _) => {
                 return Err(format!(
-                    "config key `{path}` is a section; set one of its keys instead"
+                    "config key `{shown}` is a section; set one of its keys instead"
                 ))
             }
             (Some(slot), value) => *slot = value,
@@ -564,13 +656,28 @@ fn merge(
 
 /// Applies one `key=value` override; the value is parsed as TOML, or taken as a string if it is not.
 fn apply_override(tree: &mut toml::Table, item: &str) -> Result<()> {
-    let (key, raw) = item
-        .split_once('=')
-        .ok_or_else(|| Error::usage(format!("--set `{item}`: expected KEY=VALUE")))?;
+    let (key, raw) = item.split_once('=').ok_or_else(|| {
+        Error::usage(format!(
+            "--set `{}`: expected KEY=VALUE",
+            item.escape_debug()
+        ))
+    })?;
     let key = key.trim();
     let raw = raw.trim();
     if key.is_empty() {
-        return Err(Error::usage(format!("--set `{item}`: empty key")));
+        return Err(Error::usage(format!(
+            "--set `{}`: empty key",
+            item.escape_debug()
+        )));
+    }
+    if !key
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+    {
+        return Err(Error::usage(format!(
+            "--set `{}`: not a config key (dotted names of letters, digits and `_`)",
+            key.escape_debug()
+        )));
     }
     let value = format!("v = {raw}")
         .parse::<toml::Table>()

@@ -70,7 +70,7 @@ pub struct World {
 impl World {
     /// Voxelises the scene and builds its BVH; `spawn` overrides the scene's own spawn.
     pub fn new(scene: &Scene, cfg: &Config, spawn: Option<Pose2>) -> Result<World> {
-        let ground_truth = GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg)?;
+        let ground_truth = crate::scene::build_ground_truth(scene, spawn, cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
         Ok(World { ground_truth, bvh })
     }
