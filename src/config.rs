@@ -231,7 +231,8 @@ fn positive(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::usage(format!(
-            "config key `{key}` must be a positive number, got {v}"
+            "config key `{key}` must be a positive number, got {}",
+            crate::util::short_number(v)
         )))
     }
 }
@@ -242,7 +243,8 @@ fn non_negative(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::usage(format!(
-            "config key `{key}` must be zero or positive, got {v}"
+            "config key `{key}` must be zero or positive, got {}",
+            crate::util::short_number(v)
         )))
     }
 }
@@ -254,7 +256,10 @@ fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::usage(format!(
-            "config key `{key}` must lie in [{lo}, {hi}], got {v}"
+            "config key `{key}` must lie in [{}, {}], got {}",
+            crate::util::short_number(lo),
+            crate::util::short_number(hi),
+            crate::util::short_number(v)
         )))
     }
 }
@@ -781,6 +786,122 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "config key `field.sigma_m` must be a positive number, got 0"
+        );
+    }
+
+    #[test]
+    fn camera_size_bounded() {
+        for (set, msg) in [
+            (
+                "camera.width=9223372036854775807",
+                "config key `camera.width` must lie in 1..=2048, got 9223372036854775807",
+            ),
+            (
+                "camera.height=100000",
+                "config key `camera.height` must lie in 1..=2048, got 100000",
+            ),
+            (
+                "camera.width=0",
+                "config key `camera.width` must lie in 1..=2048, got 0",
+            ),
+        ] {
+            let e = Config::load(None, &[set.into()]).unwrap_err();
+            assert_eq!(e.to_string(), msg);
+            assert_eq!(e.exit_code(), 2);
+        }
+    }
+
+    #[test]
+    fn costly_values_bounded() {
+        for (set, msg) in [
+            (
+                "sim.dt_s=1e-300",
+                "config key `sim.dt_s` must lie in [0.001, 1], got 1e-300",
+            ),
+            (
+                "field.rk4_step_m=1e-9",
+                "config key `field.rk4_step_m` must lie in [0.001, 1], got 1e-9",
+            ),
+            (
+                "field.d_s_m=1e-6",
+                "config key `field.d_s_m` must lie in [0.02, 10], got 1e-6",
+            ),
+            (
+                "map.voxel_m=0.001",
+                "config key `map.voxel_m` must lie in [0.01, 1], got 0.001",
+            ),
+            (
+                "field.substeps=100000",
+                "config key `field.substeps` must lie in 1..=1000, got 100000",
+            ),
+            (
+                "nbv.ga_population=1000000000",
+                "config key `nbv.ga_population` must lie in 1..=100000, got 1000000000",
+            ),
+            (
+                "log.chunk_size_kb=100000000",
+                "config key `log.chunk_size_kb` must lie in 1..=65536, got 100000000",
+            ),
+        ] {
+            let e = Config::load(None, &[set.into()]).unwrap_err();
+            assert_eq!(e.to_string(), msg);
+            assert_eq!(e.exit_code(), 2);
+        }
+        // Every bound is stated in the default config's comment for its key.
+        for key in [
+            "dt_s",
+            "rk4_step_m",
+            "d_s_m",
+            "voxel_m",
+            "width",
+            "height",
+            "substeps",
+        ] {
+            let i = DEFAULT_TOML
+                .find(&format!("\n{key} = "))
+                .unwrap_or_else(|| panic!("{key}"));
+            let comment = DEFAULT_TOML[..i].lines().last().unwrap();
+            assert!(comment.starts_with("# Bound: "), "{key}: {comment}");
+        }
+    }
+
+    #[test]
+    fn dt_larger_than_budget_rejected() {
+        let e = Config::load(None, &["sim.dt_s=100".into(), "sim.budget_s=20".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `sim.dt_s` must lie in [0.001, 1], got 100"
+        );
+        let e =
+            Config::load(None, &["sim.dt_s=0.1".into(), "sim.budget_s=0.05".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `sim.dt_s` (0.1) must not exceed `sim.budget_s` (0.05): the run would take no step"
+        );
+        // Faster than one 0.1 m cell per step.
+        let e = Config::load(None, &["sim.dt_s=0.5".into()]).unwrap_err();
+        assert!(
+            e.to_string().starts_with(
+                "config key `sim.dt_s` (0.5 s) is too large: at robot.max_speed_mps = 1"
+            ),
+            "{e}"
+        );
+        assert_eq!(e.exit_code(), 2);
+    }
+
+    #[test]
+    fn binary_config_is_a_usage_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(&path, [0x00, 0xff, 0xfe]).unwrap();
+        let e = Config::load(Some(&path), &[]).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: not a TOML config (not UTF-8 text at byte 1)",
+                path.display()
+            )
         );
     }
 

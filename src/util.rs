@@ -48,6 +48,17 @@ pub fn read_regular_file(path: &std::path::Path, max_bytes: u64) -> crate::Resul
     Ok(bytes)
 }
 
+/// A number for a message: plain when it reads well, scientific when it is huge or tiny, so that a
+/// value like 1e-300 prints as `1e-300` and not as 300 digits.
+pub fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// Wraps an angle to (-π, π].
 pub fn wrap_angle(a: f64) -> f64 {
     let mut a = a % std::f64::consts::TAU;

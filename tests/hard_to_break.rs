@@ -383,11 +383,7 @@ fn costly_flag_values_are_bounded() {
         "--every",
         "1e-9",
     ]);
-    assert_fails(
-        &o,
-        2,
-        "--every must lie in [0.1, 1e6] seconds, got 0.000000001",
-    );
+    assert_fails(&o, 2, "--every must lie in [0.1, 1e6] seconds, got 1e-9");
     for (set, key) in [
         ("sim.dt_s=1e-300", "sim.dt_s"),
         ("field.rk4_step_m=1e-9", "field.rk4_step_m"),

@@ -86,7 +86,7 @@ pub fn run(args: ReplayArgs) -> Result<()> {
     if !(args.every.is_finite() && (0.1..=1e6).contains(&args.every)) {
         return Err(Error::usage(format!(
             "--every must lie in [0.1, 1e6] seconds, got {}",
-            args.every
+            tensorscout::util::short_number(args.every)
         ))
         .into());
     }

@@ -334,3 +334,131 @@ pub fn read_log_bytes(bytes: &[u8]) -> std::result::Result<LogContents, String> 
     out.complete = footer && out.identity.is_some() && out.result.is_some();
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+
+    /// A small valid log: identity and result metadata and `n` messages in 1 KiB zstd chunks.
+    fn small_log(n: u32) -> Vec<u8> {
+        let mut w = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(1024))
+            .create(std::io::Cursor::new(Vec::new()))
+            .unwrap();
+        let schema = w.add_schema("s", "jsonschema", b"{}").unwrap();
+        let ch = w
+            .add_channel(schema, "/robot/pose", "json", &BTreeMap::new())
+            .unwrap();
+        let id = RunIdentity {
+            scene_path: "s.obj".into(),
+            scene_abs_path: String::new(),
+            scene_hash: "h".into(),
+            planner: "greedy".into(),
+            seed: 1,
+            version: "0".into(),
+            config_hash: "c".into(),
+            config_toml: String::new(),
+            spawn: String::new(),
+        };
+        w.write_metadata(&mcap::records::Metadata {
+            name: RUN_METADATA.into(),
+            metadata: id.to_map(),
+        })
+        .unwrap();
+        for i in 0..n {
+            let header = mcap::records::MessageHeader {
+                channel_id: ch,
+                sequence: i,
+                log_time: u64::from(i) * 100,
+                publish_time: u64::from(i) * 100,
+            };
+            let data = format!(
+                "{{\"i\": {i}, \"pad\": \"{}\"}}",
+                "x".repeat(60 + (i as usize * 7) % 50)
+            );
+            w.write_to_known_channel(&header, data.as_bytes()).unwrap();
+        }
+        w.finish().unwrap();
+        w.into_inner().into_inner()
+    }
+
+    /// (opcode, start, end) of the top-level records.
+    fn records(bytes: &[u8]) -> Vec<(u8, usize, usize)> {
+        let mut out = Vec::new();
+        let mut pos = mcap::MAGIC.len();
+        while let Some((op, _, next)) = frame(bytes, pos) {
+            out.push((op, pos, next));
+            pos = next;
+        }
+        out
+    }
+
+    #[test]
+    fn mcap_chunk_size_bounded() {
+        let good = small_log(200);
+        let log = read_log_bytes(&good).unwrap();
+        assert_eq!(log.messages.len(), 200);
+        assert!(!log.is_damaged(), "{:?}", log.problem);
+        let chunks: Vec<_> = records(&good)
+            .into_iter()
+            .filter(|r| r.0 == op::CHUNK)
+            .collect();
+        assert!(chunks.len() >= 3, "{} chunks", chunks.len());
+        // The declared uncompressed size (after the opcode, length, start and end times) of the
+        // second chunk, made absurd: the size seen in the wild, and the largest.
+        let at = chunks[1].1 + 9 + 16;
+        for declared in [349_644_714_409_993u64, u64::MAX, 3] {
+            let mut bad = good.clone();
+            bad[at..at + 8].copy_from_slice(&declared.to_le_bytes());
+            let log = read_log_bytes(&bad).unwrap();
+            assert_eq!(log.chunks_lost, 1, "{declared}");
+            assert_eq!(log.chunks_read, chunks.len() as u64 - 1, "{declared}");
+            assert!(log.complete, "the summary after the damage is read");
+            assert!(log.messages_lost > 0 && log.messages.len() < 200);
+            let problem = log.problem.unwrap();
+            assert!(problem.starts_with("damaged chunk ("), "{problem}");
+        }
+    }
+
+    #[test]
+    fn damaged_opcode_between_chunks_resyncs() {
+        let good = small_log(200);
+        let recs = records(&good);
+        let chunks = recs.iter().filter(|r| r.0 == op::CHUNK).count();
+        // The opcode of the second chunk becomes an unknown one: that chunk is lost, every other
+        // one and the summary are still read (the old reader stopped here).
+        let second = recs.iter().filter(|r| r.0 == op::CHUNK).nth(1).unwrap().1;
+        let mut bad = good.clone();
+        bad[second] = 0x7f;
+        let log = read_log_bytes(&bad).unwrap();
+        assert_eq!(log.chunks_read, chunks as u64 - 1);
+        assert_eq!(log.chunks_lost, 1);
+        assert!(log.complete);
+        assert!(log
+            .problem
+            .unwrap()
+            .starts_with(&format!("damaged record at byte {second}")));
+    }
+
+    #[test]
+    fn log_without_identity_is_incomplete() {
+        let good = small_log(10);
+        let mut stripped = good[..mcap::MAGIC.len()].to_vec();
+        let recs = records(&good);
+        for &(op, a, b) in &recs {
+            if op != op::METADATA && op != op::METADATA_INDEX {
+                stripped.extend_from_slice(&good[a..b]);
+            }
+        }
+        stripped.extend_from_slice(&good[recs.last().unwrap().2..]);
+        let log = read_log_bytes(&stripped).unwrap();
+        assert_eq!(log.messages.len(), 10);
+        assert!(log.identity.is_none() && !log.complete && log.is_damaged());
+        assert_eq!(
+            log.problem.as_deref(),
+            Some("the run identity metadata is missing")
+        );
+    }
+}

@@ -40,8 +40,8 @@ cleanup() {
         kill "$pid" 2>/dev/null || true
     done
     for pid in "${PIDS[@]}"; do
-        # Not our child when the daemon forked; wait until it is gone (at most 10 s).
-        for _ in $(seq 100); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+        # Every daemon runs in the foreground as this shell's child: wait for it to end.
+        wait "$pid" 2>/dev/null || true
     done
     rm -rf "$WORK"
 }
@@ -54,7 +54,7 @@ chmod 400 "$WORK/munge/munge.key"
 SOCKET="$WORK/munge/munge.socket"
 munged --foreground --force --key-file="$WORK/munge/munge.key" --socket="$SOCKET" \
     --pid-file="$WORK/munge/munged.pid" --log-file="$WORK/munge/munged.log" \
-    --seed-file="$WORK/munge/munged.seed" &
+    --seed-file="$WORK/munge/munged.seed" >"$WORK/munge/munged.out" 2>&1 &
 PIDS+=($!)
 for _ in $(seq 100); do [ -S "$SOCKET" ] && break; sleep 0.1; done
 [ -S "$SOCKET" ] || fail "munged did not start: $(cat "$WORK/munge/munged.log" 2>/dev/null)"
@@ -92,16 +92,16 @@ MpiDefault=none
 NodeName=$HOST NodeAddr=127.0.0.1 CPUs=$CPUS State=UNKNOWN
 PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 CONF
-slurmctld -D -i -f "$SLURM_CONF" &
+slurmctld -D -i -f "$SLURM_CONF" >"$WORK/log/slurmctld.out" 2>&1 &
 PIDS+=($!)
-slurmd -D -f "$SLURM_CONF" &
+slurmd -D -f "$SLURM_CONF" >"$WORK/log/slurmd.out" 2>&1 &
 PIDS+=($!)
 for _ in $(seq 300); do
     sinfo -h -o %t 2>/dev/null | grep -qE '^(idle|mix|alloc)' && break
     sleep 0.2
 done
 sinfo -h -o %t 2>/dev/null | grep -qE '^(idle|mix|alloc)' \
-    || fail "the node did not come up: $(tail -n 5 "$WORK/log/slurmctld.log" "$WORK/log/slurmd.log" 2>/dev/null)"
+    || fail "the node did not come up: $(tail -n 5 "$WORK"/log/* 2>/dev/null)"
 say "cluster up: node $HOST with $CPUS CPUs"
 
 # The batch: one small shipped scene, GREEDY, 3 seeds, a short budget.
@@ -122,7 +122,9 @@ tensorscout bench --scenes scenes/ --seeds 3 --jobs "\$SLURM_CPUS_PER_TASK" \\
     --shard \$((SLURM_ARRAY_TASK_ID+1))/$SHARDS --out "results/shard_\$SLURM_ARRAY_TASK_ID" --resume \\
     ${COMMON[*]}
 JOB
-timeout 600 sbatch --wait --quiet bench.sbatch || fail "the job array failed: $(cat slurm-*.out 2>/dev/null)"
+say "sbatch --array=0-$((SHARDS - 1)): $SHARDS shards of 3 runs"
+timeout 600 sbatch --wait --quiet bench.sbatch \
+    || fail "the job array failed: $(cat slurm-*.out 2>/dev/null; tail -n 5 "$WORK"/log/*)"
 for k in $(seq 0 $((SHARDS - 1))); do
     [ -s "results/shard_$k/results.jsonl" ] || fail "shard $k wrote no results: $(cat slurm-*.out 2>/dev/null)"
 done
