@@ -4,8 +4,7 @@
 use super::{RunIdentity, RESULT_METADATA, RUN_METADATA};
 use crate::sim::RunResult;
 use crate::{Error, Result};
-use mcap::parse_record;
-use mcap::records::{op, Record};
+use mcap::records::op;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -84,6 +83,157 @@ fn frame(bytes: &[u8], pos: usize) -> Option<(u8, &[u8], usize)> {
     Some((head[0], body, end))
 }
 
+/// Reads the fields of one record body, checking every declared length against the bytes left
+/// before allocating anything (the `mcap` crate's parser allocates a declared string length of up
+/// to 4 GiB first, which aborts the process on a damaged file).
+struct Fields<'a> {
+    body: &'a [u8],
+}
+
+impl<'a> Fields<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        if n > self.body.len() {
+            return None;
+        }
+        let (head, rest) = self.body.split_at(n);
+        self.body = rest;
+        Some(head)
+    }
+    fn u16(&mut self) -> Option<u16> {
+        Some(u16::from_le_bytes(self.take(2)?.try_into().ok()?))
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn string(&mut self) -> Option<String> {
+        let n = self.u32()? as usize;
+        String::from_utf8(self.take(n)?.to_vec()).ok()
+    }
+    /// A `map<string, string>` (u32 byte length, then key/value pairs).
+    fn string_map(&mut self) -> Option<BTreeMap<String, String>> {
+        let n = self.u32()? as usize;
+        let mut inner = Fields {
+            body: self.take(n)?,
+        };
+        let mut map = BTreeMap::new();
+        while !inner.body.is_empty() {
+            let k = inner.string()?;
+            let v = inner.string()?;
+            if map.insert(k, v).is_some() {
+                return None;
+            }
+        }
+        Some(map)
+    }
+}
+
+/// A message record's header fields.
+#[derive(Clone, Copy, Debug)]
+struct MessageHeader {
+    channel_id: u16,
+    sequence: u32,
+    log_time: u64,
+}
+
+/// A chunk record's header fields.
+struct ChunkHeader {
+    uncompressed_size: u64,
+    uncompressed_crc: u32,
+    compression: String,
+}
+
+/// The records the reader uses, parsed with bounds.
+enum Record<'a> {
+    Channel {
+        id: u16,
+        topic: String,
+    },
+    Message {
+        header: MessageHeader,
+        data: &'a [u8],
+    },
+    Chunk {
+        header: ChunkHeader,
+        data: &'a [u8],
+    },
+    Metadata {
+        name: String,
+        map: BTreeMap<String, String>,
+    },
+    Statistics {
+        messages: u64,
+        chunks: u32,
+    },
+    Footer,
+}
+
+fn parse_record(opcode: u8, body: &[u8]) -> Option<Record<'_>> {
+    let mut f = Fields { body };
+    Some(match opcode {
+        op::CHANNEL => {
+            let id = f.u16()?;
+            let _schema_id = f.u16()?;
+            let topic = f.string()?;
+            let _encoding = f.string()?;
+            f.string_map()?;
+            Record::Channel { id, topic }
+        }
+        op::MESSAGE => {
+            let channel_id = f.u16()?;
+            let sequence = f.u32()?;
+            let log_time = f.u64()?;
+            let _publish_time = f.u64()?;
+            Record::Message {
+                header: MessageHeader {
+                    channel_id,
+                    sequence,
+                    log_time,
+                },
+                data: f.body,
+            }
+        }
+        op::CHUNK => {
+            let _start = f.u64()?;
+            let _end = f.u64()?;
+            let uncompressed_size = f.u64()?;
+            let uncompressed_crc = f.u32()?;
+            let compression = f.string()?;
+            let compressed_size = usize::try_from(f.u64()?).ok()?;
+            let data = f.take(compressed_size)?;
+            Record::Chunk {
+                header: ChunkHeader {
+                    uncompressed_size,
+                    uncompressed_crc,
+                    compression,
+                },
+                data,
+            }
+        }
+        op::METADATA => {
+            let name = f.string()?;
+            let map = f.string_map()?;
+            Record::Metadata { name, map }
+        }
+        op::STATISTICS => {
+            let messages = f.u64()?;
+            let _schemas = f.u16()?;
+            let _channels = f.u32()?;
+            let _attachments = f.u32()?;
+            let _metadata = f.u32()?;
+            let chunks = f.u32()?;
+            Record::Statistics { messages, chunks }
+        }
+        op::FOOTER => {
+            f.take(20)?;
+            Record::Footer
+        }
+        _ => return None,
+    })
+}
+
 /// zstd cannot expand data by more than this factor (a 128 KiB block needs at least 4 bytes), so a
 /// chunk declaring a larger uncompressed size is damaged, whatever its header says.
 const ZSTD_MAX_RATIO: u64 = 1 << 15;
@@ -92,10 +242,7 @@ const MAX_CHUNK_BYTES: u64 = 1 << 30;
 
 /// Decompresses a chunk's records, never allocating more than the data can really expand to, and
 /// checks the declared size and CRC.
-fn decode_chunk(
-    header: &mcap::records::ChunkHeader,
-    data: &[u8],
-) -> std::result::Result<Vec<u8>, String> {
+fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<u8>, String> {
     let declared = header.uncompressed_size;
     let limit = match header.compression.as_str() {
         "" => data.len() as u64,
@@ -135,7 +282,7 @@ fn decode_chunk(
 }
 
 /// One message read from a chunk or the data section.
-type RawMessage = (mcap::records::MessageHeader, Vec<u8>);
+type RawMessage = (MessageHeader, Vec<u8>);
 
 /// The channels and messages of a decompressed chunk; any damage loses the whole chunk.
 fn chunk_records(
@@ -149,9 +296,11 @@ fn chunk_records(
             .ok_or_else(|| format!("record at chunk byte {pos} overruns the chunk"))?;
         match opcode {
             op::CHANNEL | op::MESSAGE => {
-                match parse_record(opcode, body).map_err(|e| e.to_string())? {
-                    Record::Channel(c) => channels.push((c.id, c.topic)),
-                    Record::Message { header, data } => messages.push((header, data.into_owned())),
+                match parse_record(opcode, body)
+                    .ok_or_else(|| format!("malformed record at chunk byte {pos}"))?
+                {
+                    Record::Channel { id, topic } => channels.push((id, topic)),
+                    Record::Message { header, data } => messages.push((header, data.to_vec())),
                     _ => {}
                 }
             }
@@ -180,10 +329,10 @@ fn parse_at(bytes: &[u8], pos: usize) -> Option<(Parsed<'_>, usize)> {
         return None;
     }
     let parsed = match opcode {
-        op::CHUNK => match parse_record(opcode, body).ok()? {
+        op::CHUNK => match parse_record(opcode, body)? {
             Record::Chunk { header, data } => {
                 let mut channels = Vec::new();
-                match decode_chunk(&header, &data)
+                match decode_chunk(&header, data)
                     .and_then(|records| chunk_records(&records, &mut channels))
                 {
                     Ok(messages) => Parsed::Chunk(channels, messages),
@@ -193,7 +342,7 @@ fn parse_at(bytes: &[u8], pos: usize) -> Option<(Parsed<'_>, usize)> {
             _ => return None,
         },
         op::CHANNEL | op::MESSAGE | op::METADATA | op::STATISTICS | op::FOOTER => {
-            Parsed::Other(parse_record(opcode, body).ok()?)
+            Parsed::Other(parse_record(opcode, body)?)
         }
         _ => Parsed::Skipped,
     };
@@ -279,29 +428,26 @@ pub fn read_log_bytes(bytes: &[u8]) -> std::result::Result<LogContents, String> 
             }
             Parsed::Skipped => {}
             Parsed::Other(record) => match record {
-                Record::Channel(c) => {
-                    topics.insert(c.id, c.topic);
+                Record::Channel { id, topic } => {
+                    topics.insert(id, topic);
                 }
                 Record::Message { header, data } => out.messages.push(LoggedMessage {
                     topic: topics.get(&header.channel_id).cloned().unwrap_or_default(),
                     log_time_ns: header.log_time,
                     sequence: header.sequence,
-                    data: data.into_owned(),
+                    data: data.to_vec(),
                 }),
-                Record::Metadata(m) if m.name == RUN_METADATA => {
-                    out.identity = RunIdentity::from_map(&m.metadata);
+                Record::Metadata { name, map } if name == RUN_METADATA => {
+                    out.identity = RunIdentity::from_map(&map);
                 }
-                Record::Metadata(m) if m.name == RESULT_METADATA => {
-                    out.result = m
-                        .metadata
-                        .get("result")
-                        .and_then(|j| serde_json::from_str(j).ok());
+                Record::Metadata { name, map } if name == RESULT_METADATA => {
+                    out.result = map.get("result").and_then(|j| serde_json::from_str(j).ok());
                 }
-                Record::Statistics(s) => {
-                    expected_messages = Some(s.message_count);
-                    expected_chunks = Some(u64::from(s.chunk_count));
+                Record::Statistics { messages, chunks } => {
+                    expected_messages = Some(messages);
+                    expected_chunks = Some(u64::from(chunks));
                 }
-                Record::Footer(_) => footer = true,
+                Record::Footer => footer = true,
                 _ => {}
             },
         }
