@@ -469,17 +469,6 @@ impl Config {
         positive("scene.max_extent_m", self.scene.max_extent_m)?;
         positive("map.voxel_m", self.map.voxel_m)?;
         within("map.voxel_m", self.map.voxel_m, 0.01, 1.0)?;
-        // The robot may not cross more than one cell per step: motion and collision checks are
-        // per step.
-        if self.sim.dt_s * self.robot.max_speed_mps > self.map.voxel_m * (1.0 + 1e-9) {
-            return Err(Error::usage(format!(
-                "config key `sim.dt_s` ({} s) is too large: at robot.max_speed_mps = {} the robot would cross more than one {} m cell per step (at most map.voxel_m / robot.max_speed_mps = {} s)",
-                self.sim.dt_s,
-                self.robot.max_speed_mps,
-                self.map.voxel_m,
-                self.map.voxel_m / self.robot.max_speed_mps
-            )));
-        }
         non_negative("map.margin_m", self.map.margin_m)?;
         non_negative("map.band_min_m", self.map.band_min_m)?;
         positive("map.band_max_m", self.map.band_max_m)?;
@@ -540,6 +529,18 @@ impl Config {
         positive("robot.height_m", self.robot.height_m)?;
         positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
         positive("robot.max_turn_rate_rps", self.robot.max_turn_rate_rps)?;
+        // A step at full speed may not carry the robot further than its own radius: motion,
+        // collision checks and sensing happen once per step, so a longer step could jump the disc
+        // past a wall.
+        if self.sim.dt_s * self.robot.max_speed_mps > self.robot.radius_m * (1.0 + 1e-9) {
+            return Err(Error::usage(format!(
+                "config key `sim.dt_s` ({} s) is too large: at robot.max_speed_mps = {} a step would carry the robot more than its radius robot.radius_m = {} m (at most {} s)",
+                self.sim.dt_s,
+                self.robot.max_speed_mps,
+                self.robot.radius_m,
+                crate::util::short_number(self.robot.radius_m / self.robot.max_speed_mps)
+            )));
+        }
         non_negative("greedy.view_distance_m", self.greedy.view_distance_m)?;
         non_negative("map.proximity_band_m", self.map.proximity_band_m)?;
         non_negative("search.proximity_cost", self.search.proximity_cost)?;
@@ -860,8 +861,15 @@ mod tests {
             let i = DEFAULT_TOML
                 .find(&format!("\n{key} = "))
                 .unwrap_or_else(|| panic!("{key}"));
-            let comment = DEFAULT_TOML[..i].lines().last().unwrap();
-            assert!(comment.starts_with("# Bound: "), "{key}: {comment}");
+            let comments: Vec<&str> = DEFAULT_TOML[..i]
+                .lines()
+                .rev()
+                .take_while(|l| l.starts_with('#'))
+                .collect();
+            assert!(
+                comments.iter().any(|l| l.starts_with("# Bound: ")),
+                "{key}: {comments:?}"
+            );
         }
     }
 
