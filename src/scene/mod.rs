@@ -65,7 +65,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         "obj" | "ply" => {
             let bytes = read_nonempty(path)?;
             let (mut mesh, spawn) = if ext == "obj" {
-                if let Some(w) = short_obj_faces(path, &bytes) {
+                if let Some(w) = scan_obj(path, &bytes)? {
                     warnings.push(w);
                 }
                 parse_obj(path, &bytes)?
@@ -146,25 +146,61 @@ pub fn open_region_warning(scene: &Scene, gt: &GroundTruth) -> Option<String> {
     })
 }
 
-/// A warning for OBJ faces with fewer than 3 vertices, which no loader can use (they are skipped).
-fn short_obj_faces(path: &Path, bytes: &[u8]) -> Option<String> {
-    let mut count = 0usize;
-    let mut first = 0usize;
-    for (n, line) in String::from_utf8_lossy(bytes).lines().enumerate() {
-        let mut words = line.split_whitespace();
-        if words.next() == Some("f") && words.count() < 3 {
-            if count == 0 {
-                first = n + 1;
-            }
-            count += 1;
+/// Checks an OBJ's faces before `tobj` sees them: an index beyond the file's vertices, texture
+/// coordinates or normals is an error naming its line (`tobj` would overflow computing the offset
+/// of a huge one), and faces with fewer than 3 vertices, which no loader can use, give a warning.
+fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut counts = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            _ => {}
         }
     }
-    (count > 0).then(|| {
+    const KINDS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    let mut short = 0usize;
+    let mut first = 0usize;
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("f") {
+            continue;
+        }
+        let mut corners = 0;
+        for w in words {
+            corners += 1;
+            for (k, part) in w.split('/').take(3).enumerate() {
+                let Ok(i) = part.parse::<i64>() else {
+                    continue; // empty (`1//2`) or malformed: tobj reports the latter
+                };
+                if i == 0 || i.unsigned_abs() > counts[k].unsigned_abs() {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "line {}: face index {i} is out of range for the file's {} {}",
+                            n + 1,
+                            counts[k],
+                            KINDS[k]
+                        ),
+                    ));
+                }
+            }
+        }
+        if corners < 3 {
+            if short == 0 {
+                first = n + 1;
+            }
+            short += 1;
+        }
+    }
+    Ok((short > 0).then(|| {
         format!(
-            "{}: {count} face(s) with fewer than 3 vertices skipped (first on line {first})",
+            "{}: {short} face(s) with fewer than 3 vertices skipped (first on line {first})",
             path.display()
         )
-    })
+    }))
 }
 
 /// Largest scene (or map image, or plan) file read: far above any real indoor scene, and a bound
@@ -654,7 +690,7 @@ f 2 3 7 6
         assert_eq!(
             err(d, "r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 9\n"),
             format!(
-                "{}: cannot parse OBJ: face vertex index out of bounds",
+                "{}: line 4: face index 9 is out of range for the file's 3 vertices",
                 pd("r.obj")
             )
         );
@@ -720,6 +756,24 @@ f 2 3 7 6
     }
 
     use ply_rs_bw::parser::Parser;
+
+    /// A huge face index (a normal index here) made `tobj` overflow computing its offset; it is
+    /// now an error naming the line (found by the fuzz harness).
+    #[test]
+    fn huge_obj_face_index_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 1\nvn 0 0 1\nf 1//1 2//1 3//6148914691236517206\n";
+        assert_eq!(
+            err(d, "n.obj", text),
+            format!(
+                "{}: line 5: face index 6148914691236517206 is out of range for the file's 1 normals",
+                d.join("n.obj").display()
+            )
+        );
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 -9223372036854775808\n";
+        assert!(err(d, "m.obj", text).contains("line 4: face index -9223372036854775808"));
+    }
 
     /// Corrupted real files (truncated, bytes flipped) give errors or meshes, never a panic.
     #[test]
