@@ -252,7 +252,8 @@ fn positive(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::usage(format!(
-            "config key `{key}` must be a positive number, got {v}"
+            "config key `{key}` must be a positive number, got {}",
+            crate::util::short_number(v)
         )))
     }
 }
@@ -263,7 +264,34 @@ fn non_negative(key: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::usage(format!(
-            "config key `{key}` must be zero or positive, got {v}"
+            "config key `{key}` must be zero or positive, got {}",
+            crate::util::short_number(v)
+        )))
+    }
+}
+
+/// Fails unless `lo <= v <= hi` (a finite number), naming `key` and the bound. Bounds on values that
+/// cost time or memory; each is stated in `configs/default.toml`'s comment for the key.
+fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must lie in [{}, {}], got {}",
+            crate::util::short_number(lo),
+            crate::util::short_number(hi),
+            crate::util::short_number(v)
+        )))
+    }
+}
+
+/// Fails unless the count `v` lies in `lo..=hi`, naming `key` and the bound.
+fn count_within(key: &str, v: u64, lo: u64, hi: u64) -> Result<()> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Error::usage(format!(
+            "config key `{key}` must lie in {lo}..={hi}, got {v}"
         )))
     }
 }
@@ -283,6 +311,7 @@ impl ThpConfig {
             positive(key, v)?;
         }
         non_negative("thp.view_distance_m", self.view_distance_m)?;
+        within("thp.field_period_s", self.field_period_s, 0.01, 1e6)?;
         if !(1..=20).contains(&self.exact_tsp_max_nodes) {
             return Err(Error::usage(format!(
                 "config key `thp.exact_tsp_max_nodes` must lie in 1..=20 (Held–Karp needs 2^n memory), got {}",
@@ -305,11 +334,12 @@ impl TensorConfig {
         }
         non_negative("tensor.wall_clearance_m", self.wall_clearance_m)?;
         non_negative("tensor.look_spacing_m", self.look_spacing_m)?;
-        if self.advect_substeps == 0 {
-            return Err(Error::usage(
-                "config key `tensor.advect_substeps` must be at least 1, got 0",
-            ));
-        }
+        count_within(
+            "tensor.advect_substeps",
+            self.advect_substeps as u64,
+            1,
+            1000,
+        )?;
         Ok(())
     }
 }
@@ -343,6 +373,22 @@ impl NbvConfig {
                 )));
             }
         }
+        for (key, v, lo, hi) in [
+            ("nbv.max_viewpoints", self.max_viewpoints, 1, 10_000),
+            ("nbv.gain_ray_stride", self.gain_ray_stride, 1, 4096),
+            ("nbv.ga_population", self.ga_population, 1, 100_000),
+            ("nbv.ga_group_size", self.ga_group_size, 1, 100_000),
+            ("nbv.ga_generations", self.ga_generations, 0, 1_000_000),
+            (
+                "nbv.ga_stall_generations",
+                self.ga_stall_generations,
+                0,
+                1_000_000,
+            ),
+            ("nbv.min_misses", self.min_misses, 0, 1_000_000_000),
+        ] {
+            count_within(key, v as u64, lo, hi)?;
+        }
         if self.ga_group_size > self.ga_population {
             return Err(Error::usage(format!(
                 "config key `nbv.ga_group_size` ({}) must not exceed `nbv.ga_population` ({})",
@@ -372,7 +418,16 @@ impl Config {
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
         let mut tree = default_tree();
         if let Some(path) = file {
-            let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+            // A regular file of at most 16 MiB; text that is not UTF-8 (a binary file given by
+            // mistake) is a usage error like any other unparsable config.
+            let bytes = crate::util::read_regular_file(path, 16 << 20)?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                Error::usage(format!(
+                    "{}: not a TOML config (not UTF-8 text at byte {})",
+                    path.display(),
+                    e.utf8_error().valid_up_to()
+                ))
+            })?;
             let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
                 Error::usage(format!("{}: {}", path.display(), one_line(&e.to_string())))
             })?;
@@ -410,15 +465,30 @@ impl Config {
 
     /// Rejects values that are of the right type but make no sense, naming the key.
     pub fn validate(&self) -> Result<()> {
-        positive("sim.dt_s", self.sim.dt_s)?;
+        // Bounds on what costs time or memory (stated in configs/default.toml).
+        within("sim.dt_s", self.sim.dt_s, 0.001, 1.0)?;
         positive("sim.budget_s", self.sim.budget_s)?;
+        within("sim.budget_s", self.sim.budget_s, 0.0, 1e6)?;
+        if self.sim.dt_s > self.sim.budget_s {
+            return Err(Error::usage(format!(
+                "config key `sim.dt_s` ({}) must not exceed `sim.budget_s` ({}): the run would take no step",
+                self.sim.dt_s, self.sim.budget_s
+            )));
+        }
         positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
         non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
-        positive("sim.curve_interval_s", self.sim.curve_interval_s)?;
-        non_negative("sim.random_spawn_margin_m", self.sim.random_spawn_margin_m)?;
-        positive(
+        within("sim.curve_interval_s", self.sim.curve_interval_s, 0.01, 1e6)?;
+        within(
+            "sim.random_spawn_margin_m",
+            self.sim.random_spawn_margin_m,
+            0.0,
+            10.0,
+        )?;
+        within(
             "metrics.observable_spacing_m",
             self.metrics.observable_spacing_m,
+            0.01,
+            10.0,
         )?;
         if self.metrics.observable_spacing_m < self.map.voxel_m {
             return Err(Error::usage(format!(
@@ -432,21 +502,18 @@ impl Config {
                 self.metrics.observable_yaws
             )));
         }
-        positive("log.map_every_s", self.log.map_every_s)?;
+        within("log.map_every_s", self.log.map_every_s, 0.01, 1e6)?;
         if !(1..=19).contains(&self.log.zstd_level) {
             return Err(Error::usage(format!(
                 "config key `log.zstd_level` must be 1..=19, got {}",
                 self.log.zstd_level
             )));
         }
-        if self.log.chunk_size_kb == 0 {
-            return Err(Error::usage(
-                "config key `log.chunk_size_kb` must be positive, got 0",
-            ));
-        }
+        count_within("log.chunk_size_kb", self.log.chunk_size_kb, 1, 65_536)?;
         positive("scene.wall_height_m", self.scene.wall_height_m)?;
         positive("scene.max_extent_m", self.scene.max_extent_m)?;
         positive("map.voxel_m", self.map.voxel_m)?;
+        within("map.voxel_m", self.map.voxel_m, 0.01, 1.0)?;
         non_negative("map.margin_m", self.map.margin_m)?;
         non_negative("map.band_min_m", self.map.band_min_m)?;
         positive("map.band_max_m", self.map.band_max_m)?;
@@ -492,22 +559,33 @@ impl Config {
         }
         non_negative("camera.min_range_m", c.min_range_m)?;
         positive("camera.max_range_m", c.max_range_m)?;
+        within("camera.max_range_m", c.max_range_m, 0.0, 100.0)?;
         if c.min_range_m >= c.max_range_m {
             return Err(Error::usage(
                 "config key `camera.min_range_m` must be below `camera.max_range_m`",
             ));
         }
-        if c.width == 0 || c.height == 0 {
-            return Err(Error::usage(
-                "config keys `camera.width` and `camera.height` must be at least 1",
-            ));
-        }
+        count_within("camera.width", c.width as u64, 1, 2048)?;
+        count_within("camera.height", c.height as u64, 1, 2048)?;
         positive("camera.mount_height_m", c.mount_height_m)?;
         positive("camera.rate_hz", c.rate_hz)?;
+        within("camera.rate_hz", c.rate_hz, 0.0, 1000.0)?;
         positive("robot.radius_m", self.robot.radius_m)?;
         positive("robot.height_m", self.robot.height_m)?;
         positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
         positive("robot.max_turn_rate_rps", self.robot.max_turn_rate_rps)?;
+        // A step at full speed may not carry the robot further than its own radius: motion,
+        // collision checks and sensing happen once per step, so a longer step could jump the disc
+        // past a wall.
+        if self.sim.dt_s * self.robot.max_speed_mps > self.robot.radius_m * (1.0 + 1e-9) {
+            return Err(Error::usage(format!(
+                "config key `sim.dt_s` ({} s) is too large: at robot.max_speed_mps = {} a step would carry the robot more than its radius robot.radius_m = {} m (at most {} s)",
+                self.sim.dt_s,
+                self.robot.max_speed_mps,
+                self.robot.radius_m,
+                crate::util::short_number(self.robot.radius_m / self.robot.max_speed_mps)
+            )));
+        }
         non_negative("greedy.view_distance_m", self.greedy.view_distance_m)?;
         non_negative("map.proximity_band_m", self.map.proximity_band_m)?;
         non_negative("search.proximity_cost", self.search.proximity_cost)?;
@@ -553,11 +631,36 @@ impl Config {
                 f.weight_cutoff
             )));
         }
-        if f.substeps == 0 || f.topology_cell_factor == 0 {
-            return Err(Error::usage(
-                "config keys `field.substeps` and `field.topology_cell_factor` must be at least 1",
-            ));
-        }
+        within("field.d_s_m", f.d_s_m, 0.02, 10.0)?;
+        within("field.sigma_m", f.sigma_m, 0.01, 10.0)?;
+        within("field.rk4_step_m", f.rk4_step_m, 0.001, 1.0)?;
+        within("field.keyframe_period_s", f.keyframe_period_s, 0.01, 1e6)?;
+        within("field.timevary_radius_m", f.timevary_radius_m, 0.0, 50.0)?;
+        within(
+            "field.separatrix_max_length_m",
+            f.separatrix_max_length_m,
+            0.0,
+            10_000.0,
+        )?;
+        count_within("field.substeps", f.substeps as u64, 1, 1000)?;
+        count_within(
+            "field.topology_cell_factor",
+            f.topology_cell_factor as u64,
+            1,
+            16,
+        )?;
+        count_within(
+            "field.timevary_max_iterations",
+            f.timevary_max_iterations as u64,
+            0,
+            100_000,
+        )?;
+        count_within(
+            "field.cancel_max_iterations",
+            f.cancel_max_iterations as u64,
+            0,
+            100_000,
+        )?;
         self.thp.validate()?;
         self.tensor.validate()?;
         self.nbv.validate()?;
@@ -586,12 +689,14 @@ fn merge(
         } else {
             format!("{prefix}.{key}")
         };
+        // Keys are shown escaped: a key holding a newline must not break the one-line error.
+        let shown = path.escape_debug();
         match (base.get_mut(&key), value) {
-            (None, _) => return Err(format!("unknown config key `{path}`")),
+            (None, _) => return Err(format!("unknown config key `{shown}`")),
             (Some(toml::Value::Table(b)), toml::Value::Table(u)) => merge(b, u, &path)?,
             (Some(toml::Value::Table(_)), _) => {
                 return Err(format!(
-                    "config key `{path}` is a section; set one of its keys instead"
+                    "config key `{shown}` is a section; set one of its keys instead"
                 ))
             }
             (Some(slot), value) => *slot = value,
@@ -602,13 +707,28 @@ fn merge(
 
 /// Applies one `key=value` override; the value is parsed as TOML, or taken as a string if it is not.
 fn apply_override(tree: &mut toml::Table, item: &str) -> Result<()> {
-    let (key, raw) = item
-        .split_once('=')
-        .ok_or_else(|| Error::usage(format!("--set `{item}`: expected KEY=VALUE")))?;
+    let (key, raw) = item.split_once('=').ok_or_else(|| {
+        Error::usage(format!(
+            "--set `{}`: expected KEY=VALUE",
+            item.escape_debug()
+        ))
+    })?;
     let key = key.trim();
     let raw = raw.trim();
     if key.is_empty() {
-        return Err(Error::usage(format!("--set `{item}`: empty key")));
+        return Err(Error::usage(format!(
+            "--set `{}`: empty key",
+            item.escape_debug()
+        )));
+    }
+    if !key
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+    {
+        return Err(Error::usage(format!(
+            "--set `{}`: not a config key (dotted names of letters, digits and `_`)",
+            key.escape_debug()
+        )));
     }
     let value = format!("v = {raw}")
         .parse::<toml::Table>()
@@ -712,6 +832,129 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "config key `field.sigma_m` must be a positive number, got 0"
+        );
+    }
+
+    #[test]
+    fn camera_size_bounded() {
+        for (set, msg) in [
+            (
+                "camera.width=9223372036854775807",
+                "config key `camera.width` must lie in 1..=2048, got 9223372036854775807",
+            ),
+            (
+                "camera.height=100000",
+                "config key `camera.height` must lie in 1..=2048, got 100000",
+            ),
+            (
+                "camera.width=0",
+                "config key `camera.width` must lie in 1..=2048, got 0",
+            ),
+        ] {
+            let e = Config::load(None, &[set.into()]).unwrap_err();
+            assert_eq!(e.to_string(), msg);
+            assert_eq!(e.exit_code(), 2);
+        }
+    }
+
+    #[test]
+    fn costly_values_bounded() {
+        for (set, msg) in [
+            (
+                "sim.dt_s=1e-300",
+                "config key `sim.dt_s` must lie in [0.001, 1], got 1e-300",
+            ),
+            (
+                "field.rk4_step_m=1e-9",
+                "config key `field.rk4_step_m` must lie in [0.001, 1], got 1e-9",
+            ),
+            (
+                "field.d_s_m=1e-6",
+                "config key `field.d_s_m` must lie in [0.02, 10], got 1e-6",
+            ),
+            (
+                "map.voxel_m=0.001",
+                "config key `map.voxel_m` must lie in [0.01, 1], got 0.001",
+            ),
+            (
+                "field.substeps=100000",
+                "config key `field.substeps` must lie in 1..=1000, got 100000",
+            ),
+            (
+                "nbv.ga_population=1000000000",
+                "config key `nbv.ga_population` must lie in 1..=100000, got 1000000000",
+            ),
+            (
+                "log.chunk_size_kb=100000000",
+                "config key `log.chunk_size_kb` must lie in 1..=65536, got 100000000",
+            ),
+        ] {
+            let e = Config::load(None, &[set.into()]).unwrap_err();
+            assert_eq!(e.to_string(), msg);
+            assert_eq!(e.exit_code(), 2);
+        }
+        // Every bound is stated in the default config's comment for its key.
+        for key in [
+            "dt_s",
+            "rk4_step_m",
+            "d_s_m",
+            "voxel_m",
+            "width",
+            "height",
+            "substeps",
+        ] {
+            let i = DEFAULT_TOML
+                .find(&format!("\n{key} = "))
+                .unwrap_or_else(|| panic!("{key}"));
+            let comments: Vec<&str> = DEFAULT_TOML[..i]
+                .lines()
+                .rev()
+                .take_while(|l| l.starts_with('#'))
+                .collect();
+            assert!(
+                comments.iter().any(|l| l.starts_with("# Bound: ")),
+                "{key}: {comments:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn dt_larger_than_budget_rejected() {
+        let e = Config::load(None, &["sim.dt_s=100".into(), "sim.budget_s=20".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `sim.dt_s` must lie in [0.001, 1], got 100"
+        );
+        let e =
+            Config::load(None, &["sim.dt_s=0.1".into(), "sim.budget_s=0.05".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `sim.dt_s` (0.1) must not exceed `sim.budget_s` (0.05): the run would take no step"
+        );
+        // Faster than one 0.1 m cell per step.
+        let e = Config::load(None, &["sim.dt_s=0.5".into()]).unwrap_err();
+        assert!(
+            e.to_string().starts_with(
+                "config key `sim.dt_s` (0.5 s) is too large: at robot.max_speed_mps = 1"
+            ),
+            "{e}"
+        );
+        assert_eq!(e.exit_code(), 2);
+    }
+
+    #[test]
+    fn binary_config_is_a_usage_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.toml");
+        std::fs::write(&path, [0x00, 0xff, 0xfe]).unwrap();
+        let e = Config::load(Some(&path), &[]).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: not a TOML config (not UTF-8 text at byte 1)",
+                path.display()
+            )
         );
     }
 

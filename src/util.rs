@@ -10,6 +10,55 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
     h
 }
 
+/// Reads a whole regular file (symlinks followed) of at most `max_bytes`. A device (`/dev/zero`), a
+/// FIFO (which would block with no writer) or a folder is refused before it is opened, and the read
+/// itself stops at the bound, so no input can make the program read without end.
+pub fn read_regular_file(path: &std::path::Path, max_bytes: u64) -> crate::Result<Vec<u8>> {
+    use crate::Error;
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        let what = if meta.is_dir() {
+            "a folder"
+        } else {
+            "not a regular file (a device, FIFO or socket)"
+        };
+        return Err(Error::scene(path, format!("is {what}; expected a file")));
+    }
+    if meta.len() > max_bytes {
+        return Err(Error::scene(
+            path,
+            format!(
+                "file of {} bytes exceeds the {max_bytes}-byte limit",
+                meta.len()
+            ),
+        ));
+    }
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(Error::scene(
+            path,
+            format!("file exceeds the {max_bytes}-byte limit"),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// A number for a message: plain when it reads well, scientific when it is huge or tiny, so that a
+/// value like 1e-300 prints as `1e-300` and not as 300 digits.
+pub fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// Wraps an angle to (-π, π].
 pub fn wrap_angle(a: f64) -> f64 {
     let mut a = a % std::f64::consts::TAU;

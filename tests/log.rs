@@ -209,7 +209,7 @@ fn truncated_log_replays_complete_chunks_and_reports_the_loss() {
 }
 
 #[test]
-fn sigint_finishes_the_log_and_reports_interrupted() {
+fn interrupted_log_verifies_up_to_its_end() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_copy(dir.path(), "office_large.obj");
     let log = dir.path().join("run.mcap");
@@ -235,7 +235,8 @@ fn sigint_finishes_the_log_and_reports_interrupted() {
         .unwrap();
     assert!(killed.success());
     let out = child.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
+    // Exit 130 after SIGINT, with the result printed and the log finished.
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
     let result = json(&out);
     assert_eq!(result["termination"], "interrupted");
     let s = replay(&log, &["--json"]);
@@ -244,6 +245,16 @@ fn sigint_finishes_the_log_and_reports_interrupted() {
     assert_eq!(s["complete"], true);
     assert_eq!(s["result"]["termination"], "interrupted");
     assert_eq!(s["messages"]["/robot/pose"], result["steps"]);
+    // The re-run stops where the interrupted run stopped, and says so.
+    let v = replay(&log, &["--verify"]);
+    assert!(v.status.success(), "{}", stderr(&v));
+    let line = stdout(&v).lines().last().unwrap_or_default().to_string();
+    let t: f64 = line
+        .strip_prefix("identical up to t = ")
+        .and_then(|r| r.strip_suffix(" s (the run was interrupted there)"))
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert_eq!(t, result["sim_time_s"].as_f64().unwrap());
 }
 
 #[test]

@@ -395,9 +395,52 @@ fn write_all_from_rows(
         .count())
 }
 
+/// The row's result without its wall-clock fields, for comparing two runs of the same key.
+fn comparable(row: &BenchRow) -> serde_json::Value {
+    let mut v = serde_json::to_value(row).unwrap_or(serde_json::Value::Null);
+    if let Some(r) = v.get_mut("result").and_then(|r| r.as_object_mut()) {
+        for k in ["wall_time_s", "real_time_factor", "timings_ms"] {
+            r.remove(k);
+        }
+    }
+    v
+}
+
+/// The first run key present twice with results that differ (apart from wall-clock fields), and
+/// how many keys differ so.
+fn conflicts(rows: &[BenchRow]) -> Option<(RunKey, usize)> {
+    let mut by_key: std::collections::BTreeMap<&RunKey, serde_json::Value> = Default::default();
+    let mut first = None;
+    let mut count = 0;
+    let mut counted = BTreeSet::new();
+    for r in rows {
+        let v = comparable(r);
+        match by_key.get(&r.key) {
+            Some(prev) if *prev != v => {
+                if counted.insert(&r.key) {
+                    count += 1;
+                    first.get_or_insert_with(|| r.key.clone());
+                }
+            }
+            Some(_) => {}
+            None => {
+                by_key.insert(&r.key, v);
+            }
+        }
+    }
+    first.map(|k| (k, count))
+}
+
 /// Combines the rows of several batch folders (e.g. shards) into `out` and writes every derived file.
-/// A run present in several folders is kept once. Returns the number of failed rows.
-pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Result<usize> {
+/// A run present in several folders with the same result is kept once; one with differing results
+/// is an error naming it, unless `keep_first` (then the copy from the earliest folder is kept).
+/// Returns the number of failed rows.
+pub fn merge(
+    dirs: &[PathBuf],
+    out: &Path,
+    reference: Option<PlannerKind>,
+    keep_first: bool,
+) -> Result<usize> {
     let mut rows = Vec::new();
     for d in dirs {
         let path = d.join(store::RESULTS_JSONL);
@@ -410,8 +453,17 @@ pub fn merge(dirs: &[PathBuf], out: &Path, reference: Option<PlannerKind>) -> Re
         }
         rows.extend(store::read_jsonl(&path)?);
     }
+    if let Some((k, n)) = conflicts(&rows) {
+        if !keep_first {
+            return Err(Error::Runtime(format!(
+                "{n} run(s) differ between the folders, e.g. {} {} seed {} (config {}); pass --keep-first to keep the first folder's",
+                k.scene_path, k.planner, k.seed, k.config_hash
+            )));
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let _lock = DirLock::take(out)?;
+    // The sort is stable, so the first folder's copy of a run comes first and is the one kept.
     write_all_from_rows(out, rows, reference)
 }
 
@@ -486,6 +538,47 @@ mod tests {
         );
         drop(taken);
         assert!(!lock.exists());
+    }
+
+    fn row(seed: u64, error: &str) -> BenchRow {
+        BenchRow::failed(
+            RunKey {
+                scene_path: "a.obj".into(),
+                scene_hash: "h".into(),
+                planner: "greedy".into(),
+                seed,
+                config_hash: "c".into(),
+            },
+            error.into(),
+        )
+    }
+
+    #[test]
+    fn bench_merge_reports_conflicting_results() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b, out) = (
+            dir.path().join("a"),
+            dir.path().join("b"),
+            dir.path().join("out"),
+        );
+        for d in [&a, &b] {
+            std::fs::create_dir(d).unwrap();
+        }
+        store::write_jsonl(&a.join(store::RESULTS_JSONL), &[row(1, "x"), row(2, "y")]).unwrap();
+        // The same run twice with the same result is no conflict; seed 2 differs.
+        store::write_jsonl(&b.join(store::RESULTS_JSONL), &[row(1, "x"), row(2, "z")]).unwrap();
+        let e = merge(&[a.clone(), b.clone()], &out, None, false)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "1 run(s) differ between the folders, e.g. a.obj greedy seed 2 (config c); pass --keep-first to keep the first folder's"
+        );
+        assert!(!out.exists(), "nothing is written on a conflict");
+        assert_eq!(merge(&[a, b], &out, None, true).unwrap(), 2);
+        let rows = store::read_jsonl(&out.join(store::RESULTS_JSONL)).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1].error.as_deref(), Some("y"));
     }
 
     #[test]

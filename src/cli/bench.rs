@@ -1,6 +1,6 @@
 //! `tensorscout bench`: scenes × planners × seeds in parallel, and `bench merge` for shards.
 
-use super::ConfigArgs;
+use super::{note, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -38,6 +38,60 @@ struct MergeArgs {
     /// Planner that r_ε is relative to (default thp, else the first planner present).
     #[arg(long, value_enum)]
     reference: Option<PlannerKind>,
+    /// Replace the results of an `--out` folder that already holds some.
+    #[arg(long)]
+    force: bool,
+    /// When a run appears in several folders with different results, keep the first folder's
+    /// instead of failing.
+    #[arg(long)]
+    keep_first: bool,
+}
+
+/// Largest `--seeds`, `--jobs` and number of runs in one batch (sanity bounds: a typo such as
+/// `--seeds 1000000000` is refused instead of allocating its plan).
+const MAX_SEEDS: u64 = 100_000;
+const MAX_JOBS: usize = 1024;
+const MAX_RUNS: usize = 1_000_000;
+
+/// Files a bench folder holds besides `results.jsonl`.
+const DERIVED: [&str; 5] = [
+    "results.csv",
+    "curves.csv",
+    "summary.md",
+    "summary.json",
+    "plots",
+];
+
+/// Refuses an output folder that holds results (or files bench would overwrite) unless `force`,
+/// or `resume` for a batch's own `results.jsonl`.
+fn check_out(out: &std::path::Path, force: bool, resume: bool) -> tensorscout::Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(Error::usage(format!(
+            "--out {}: is a file, not a folder",
+            out.display()
+        )));
+    }
+    if force {
+        return Ok(());
+    }
+    let jsonl = out.join(bench::store::RESULTS_JSONL);
+    if jsonl.exists() {
+        return if resume {
+            Ok(())
+        } else {
+            Err(Error::usage(format!(
+                "{} already exists; pass --resume to continue that batch, --force to replace it, or choose another --out",
+                jsonl.display()
+            )))
+        };
+    }
+    if let Some(f) = DERIVED.iter().map(|f| out.join(f)).find(|p| p.exists()) {
+        return Err(Error::usage(format!(
+            "{} already exists and is not from a bench run here; pass --force to overwrite it or choose another --out",
+            f.display()
+        )));
+    }
+    Ok(())
 }
 
 #[derive(Args)]
@@ -53,9 +107,9 @@ struct RunArgs {
         default_value = "thp,tensor,nbv,greedy"
     )]
     planners: Vec<PlannerKind>,
-    /// Seeds per scene and planner: the config's `seed`, `seed+1`, … With more than one seed, each
-    /// seed starts from its own random pose over the scene's reachable floor (the same pose for every
-    /// planner, so runs pair up); see --scene-spawn.
+    /// Seeds per scene and planner: the config's `seed`, `seed+1`, … (1 to 100000). With more than
+    /// one seed, each seed starts from its own random pose over the scene's reachable floor (the
+    /// same pose for every planner, so runs pair up); see --scene-spawn.
     #[arg(long, default_value_t = 3)]
     seeds: u64,
     /// Start every run at the scene's own spawn, even with several seeds (then seeds vary only the
@@ -64,7 +118,7 @@ struct RunArgs {
     scene_spawn: bool,
     #[command(flatten)]
     config: ConfigArgs,
-    /// Runs in parallel on one thread pool (default: the number of cores).
+    /// Runs in parallel on one thread pool (default: the number of cores; at most 1024).
     #[arg(long)]
     jobs: Option<usize>,
     /// Output folder.
@@ -76,6 +130,9 @@ struct RunArgs {
     /// Skip runs whose results are already in DIR/results.jsonl.
     #[arg(long)]
     resume: bool,
+    /// Replace what an `--out` folder holds (results of another batch, or files of the same names).
+    #[arg(long, conflicts_with = "resume")]
+    force: bool,
     /// Run only the deterministic slice K of N (1-based), e.g. `--shard 2/8`.
     #[arg(long, value_name = "K/N")]
     shard: Option<String>,
@@ -114,8 +171,9 @@ impl bench::Progress for Bar {
 pub fn run(args: BenchArgs) -> Result<()> {
     match args.merge {
         Some(BenchCommand::Merge(m)) => {
-            let failed = bench::merge(&m.dirs, &m.out, m.reference)?;
-            eprintln!(
+            check_out(&m.out, m.force, false)?;
+            let failed = bench::merge(&m.dirs, &m.out, m.reference, m.keep_first)?;
+            note!(
                 "merged {} folders into {} ({failed} failed runs)",
                 m.dirs.len(),
                 m.out.display()
@@ -133,15 +191,18 @@ fn run_batch(a: RunArgs) -> Result<()> {
     if a.scenes.is_empty() {
         return Err(Error::usage("bench: --scenes is required").into());
     }
-    if a.seeds == 0 {
-        return Err(Error::usage("--seeds 0: expected at least 1").into());
+    if !(1..=MAX_SEEDS).contains(&a.seeds) {
+        return Err(Error::usage(format!("--seeds {}: expected 1 to {MAX_SEEDS}", a.seeds)).into());
     }
     let shard = a.shard.as_deref().map(str::parse::<Shard>).transpose()?;
     let jobs = match a.jobs {
-        Some(0) => return Err(Error::usage("--jobs 0: expected at least 1").into()),
+        Some(j) if !(1..=MAX_JOBS).contains(&j) => {
+            return Err(Error::usage(format!("--jobs {j}: expected 1 to {MAX_JOBS}")).into())
+        }
         Some(j) => j,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    check_out(&out, a.force, a.resume)?;
     let mut config = a.config.load()?;
     bench::apply_spawn_rule(&mut config, a.seeds, a.scene_spawn);
     let spec = BenchSpec {
@@ -157,6 +218,13 @@ fn run_batch(a: RunArgs) -> Result<()> {
         log_runs: a.log_runs,
         cache: ObservableCache::user(),
     };
+    let runs = spec.scenes.len() as u64 * spec.planners.len() as u64 * spec.seeds;
+    if runs > MAX_RUNS as u64 {
+        return Err(Error::usage(format!(
+            "the batch has {runs} runs, more than {MAX_RUNS}; use fewer --seeds, scenes or planners"
+        ))
+        .into());
+    }
     let total = bench::plan_runs(&spec).len();
     let show = !a.quiet && std::io::stderr().is_terminal();
     let bar = Bar {
@@ -174,12 +242,19 @@ fn run_batch(a: RunArgs) -> Result<()> {
         .expect("valid template"),
     );
     bar.bar.set_message("0 failed");
+    if a.force {
+        // Replace: the earlier rows go, so the batch starts afresh.
+        let jsonl = spec.out.join(bench::store::RESULTS_JSONL);
+        if jsonl.exists() {
+            std::fs::remove_file(&jsonl).map_err(|e| Error::io(&jsonl, e))?;
+        }
+    }
     let report = bench::run_batch(&spec, &bar)?;
     bar.bar.finish_and_clear();
-    for note in &report.notes {
-        eprintln!("{note}");
+    for line in &report.notes {
+        note!("{line}");
     }
-    eprintln!(
+    note!(
         "{} runs ({} skipped as already done, {} run now), {} failed; results in {}",
         report.total,
         report.skipped,

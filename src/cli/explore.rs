@@ -1,14 +1,13 @@
 //! `tensorscout explore`: one run, its metrics, and optionally a picture.
 
-use super::{check_output, parse_start, ConfigArgs, StartArg};
+use super::{check_distinct, check_output, emit, note, parse_start, signals, ConfigArgs, StartArg};
 use anyhow::Result;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Point2;
+use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 use tensorscout::log::{Recorder, RunIdentity, RunLog};
 use tensorscout::map::Map;
 use tensorscout::plan::Action;
@@ -50,7 +49,8 @@ pub struct ExploreArgs {
     force: bool,
 }
 
-/// Forwards to up to two observers (the log and the progress bar).
+/// Forwards to up to two observers (the log and the progress bar); a SIGINT or SIGTERM asks the
+/// run to stop.
 struct Both<'a>(Option<&'a mut dyn Observer>, Option<&'a mut dyn Observer>);
 
 impl Observer for Both<'_> {
@@ -73,10 +73,12 @@ impl Observer for Both<'_> {
             .for_each(|o| o.on_finish(result));
     }
     fn stop_requested(&self) -> bool {
-        self.0
-            .iter()
-            .chain(self.1.iter())
-            .any(|o| o.stop_requested())
+        signals::stop_requested()
+            || self
+                .0
+                .iter()
+                .chain(self.1.iter())
+                .any(|o| o.stop_requested())
     }
 }
 
@@ -103,11 +105,16 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         cfg.seed = seed;
     }
     if let Some(png) = &args.png {
-        check_output(png, args.force)?;
+        check_output(png, args.force, Some("png"))?;
     }
     if let Some(log) = &args.log {
-        check_output(log, args.force)?;
+        check_output(log, args.force, None)?;
     }
+    let outputs: Vec<(&str, &std::path::Path)> = [("--png", &args.png), ("--log", &args.log)]
+        .into_iter()
+        .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+        .collect();
+    check_distinct(&outputs, &[("--scene", &args.scene)])?;
     let spawn: Option<Pose2> = match args.spawn {
         Some(StartArg::Random) => {
             cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
@@ -119,23 +126,27 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     // Fail on an unavailable planner before the scene is loaded.
     args.planner.build(&cfg)?;
     let scene = scene::load(&args.scene, &cfg.scene)?;
+    for w in &scene.warnings {
+        note!("warning: {w}");
+    }
     let world = World::with_cache(&scene, &cfg, spawn, &ObservableCache::user())?;
     if let Some(w) = world.observable_source.warning() {
-        eprintln!("{w}");
+        note!("{w}");
+    }
+    if let Some(w) = scene::open_region_warning(&scene, &world.ground_truth) {
+        note!("warning: {w}");
     }
 
+    // From here a SIGINT or SIGTERM stops the run cleanly: its result is printed and its log
+    // finished, then the process exits 130 or 143.
+    let _cooperative = signals::Cooperative::begin();
     let mut logger = match &args.log {
         Some(path) => {
             let identity = RunIdentity::new(&args.scene, &scene, args.planner, &cfg, spawn);
-            let stop = Arc::new(AtomicBool::new(false));
-            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-                signal_hook::flag::register(signal, Arc::clone(&stop))
-                    .map_err(|e| tensorscout::Error::Runtime(format!("signal handler: {e}")))?;
-            }
             Some(Recorder::new(
                 RunLog::create(path, &identity, &cfg.log)?,
                 &cfg,
-                Some(stop),
+                None,
             ))
         }
         None => None,
@@ -163,32 +174,40 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         l.sink.close()?;
     }
     let output = output?;
-    if let Some(png) = &args.png {
-        render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
-    }
     let r = &output.result;
+    // The result is printed before the picture is drawn, so that a failed write loses nothing.
+    let mut text = String::new();
     if args.json {
-        println!("{}", serde_json::to_string(r)?);
+        writeln!(text, "{}", serde_json::to_string(r)?)?;
     } else {
-        println!("scene          {} ({})", r.scene, args.scene.display());
-        println!("planner        {}  seed {}", r.planner, r.seed);
-        println!(
+        writeln!(
+            text,
+            "scene          {} ({})",
+            r.scene,
+            args.scene.display()
+        )?;
+        writeln!(text, "planner        {}  seed {}", r.planner, r.seed)?;
+        writeln!(
+            text,
             "start          ({:.2}, {:.2}, yaw {:.2})",
             r.spawn.x, r.spawn.y, r.spawn.yaw
-        );
-        println!("termination    {}", r.termination.as_str());
-        println!(
+        )?;
+        writeln!(text, "termination    {}", r.termination.as_str())?;
+        writeln!(
+            text,
             "completeness   {:.3}  of the observable {:.2} m³ (reachable floor {:.1} m²)",
             r.completeness, r.observable_volume_m3, r.reachable_area_m2
-        );
-        println!(
+        )?;
+        writeln!(
+            text,
             "explored       {:.2} m³ ({:.2} % outside the observable set)",
             r.explored_volume_m3,
             100.0 * r.explored_outside_observable_fraction
-        );
-        println!("surface        {:.3}", r.surface_coverage);
+        )?;
+        writeln!(text, "surface        {:.3}", r.surface_coverage)?;
         for p in &r.unseen_observable {
-            println!(
+            writeln!(
+                text,
                 "  unseen {:.2} m³ around ({:.1}, {:.1}), {:.1}–{:.1} m high{}",
                 p.volume_m3,
                 p.x,
@@ -200,20 +219,26 @@ pub fn run(args: ExploreArgs) -> Result<()> {
                 } else {
                     ", not over reachable floor"
                 }
-            );
+            )?;
         }
-        println!("path length    {:.1} m", r.path_length_m);
-        println!(
+        writeln!(text, "path length    {:.1} m", r.path_length_m)?;
+        writeln!(
+            text,
             "time           {:.1} s simulated, {:.2} s wall, {:.0}× real time",
             r.sim_time_s, r.wall_time_s, r.real_time_factor
-        );
-        println!("collisions     {}", r.collisions);
+        )?;
+        writeln!(text, "collisions     {}", r.collisions)?;
         for (stage, s) in &r.timings_ms {
-            println!(
+            writeln!(
+                text,
                 "  {stage:<7} mean {:.3} ms  p50 {:.3}  p95 {:.3}  max {:.3}",
                 s.mean, s.p50, s.p95, s.max
-            );
+            )?;
         }
+    }
+    emit(&text)?;
+    if let Some(png) = &args.png {
+        render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
     }
     if let Some(e) = &r.error {
         return Err(tensorscout::Error::Runtime(e.clone()).into());

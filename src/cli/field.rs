@@ -1,11 +1,11 @@
 //! `tensorscout field`: the tensor field of a scene and its topology, as if fully observed.
 
-use super::{check_output, ConfigArgs};
+use super::{check_distinct, check_output, emit, note, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use tensorscout::field::{self, draw::draw_field};
-use tensorscout::scene::{self, GroundTruth};
+use tensorscout::scene;
 use tensorscout::{render, Pose2};
 
 /// What the field is built from.
@@ -24,7 +24,7 @@ pub struct FieldArgs {
     #[arg(long, value_enum, default_value = "full")]
     known: Known,
     /// Start pose `X,Y[,YAW]`; it picks the explorable region (default: the scene's own).
-    #[arg(long, value_name = "X,Y[,YAW]", value_parser = super::parse_spawn)]
+    #[arg(long, value_name = "X,Y[,YAW]", value_parser = super::parse_spawn, allow_hyphen_values = true)]
     spawn: Option<Pose2>,
     #[command(flatten)]
     config: ConfigArgs,
@@ -45,10 +45,14 @@ pub struct FieldArgs {
 pub fn run(args: FieldArgs) -> Result<()> {
     let cfg = args.config.load()?;
     if let Some(png) = &args.png {
-        check_output(png, args.force)?;
+        check_output(png, args.force, Some("png"))?;
+        check_distinct(&[("--png", png)], &[("--scene", &args.scene)])?;
     }
     let scene = scene::load(&args.scene, &cfg.scene)?;
-    let gt = GroundTruth::build(&scene.mesh, args.spawn.or(scene.spawn), &cfg)?;
+    for w in &scene.warnings {
+        note!("warning: {w}");
+    }
+    let gt = scene::build_ground_truth(&scene, args.spawn, &cfg)?;
     let Known::Full = args.known;
     let surface = gt.surface_columns();
     let (mut tensor_field, report) =
@@ -68,29 +72,37 @@ pub fn run(args: FieldArgs) -> Result<()> {
         if let Some(c) = &comparison {
             value["reference"] = serde_json::to_value(c)?;
         }
-        println!("{}", serde_json::to_string(&value)?);
+        emit(&format!("{}\n", serde_json::to_string(&value)?))?;
     } else {
-        println!("scene          {}", scene.name);
-        println!("constraints    {}", report.constraints);
-        println!(
+        use std::fmt::Write as _;
+        let mut o = String::new();
+        let _ = writeln!(o, "scene          {}", scene.name);
+        let _ = writeln!(o, "constraints    {}", report.constraints);
+        let _ = writeln!(
+            o,
             "degenerate     {} wedges, {} trisectors, {} other",
             report.wedges, report.trisectors, report.other_points
         );
-        println!(
+        let _ = writeln!(
+            o,
             "topology       {} separatrices, {} graph edges",
             report.separatrices, report.graph_edges
         );
         let t = &report.timings_ms;
-        println!(
+        let _ = writeln!(
+            o,
             "timings        sampling {:.1} ms, field {:.1} ms, topology {:.1} ms, total {:.1} ms",
             t.sampling, t.field, t.topology, t.total
         );
         if let Some(c) = &comparison {
-            println!(
+            let _ = writeln!(
+            o,
+
                 "reference      max orientation difference {:.2e} rad; reference {:.1} ms vs fast {:.1} ms ({:.0}×)",
                 c.max_orientation_difference_rad, c.reference_ms, c.fast_full_ms, c.speed_ratio
             );
         }
+        emit(&o)?;
     }
     Ok(())
 }

@@ -89,6 +89,136 @@ impl ConfigArgs {
     }
 }
 
+/// SIGINT and SIGTERM: exit 130 and 143 everywhere. By default a signal ends the process at once
+/// (a bench's finished rows are already flushed; nothing else is half-written). Inside a
+/// [`signals::Cooperative`] section (an `explore` run) the first signal only asks the run to stop,
+/// so that its result is printed and its log finished; a second signal ends the process at once.
+pub mod signals {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+    static IMMEDIATE: AtomicBool = AtomicBool::new(true);
+    static STOP: AtomicBool = AtomicBool::new(false);
+    static RECEIVED: AtomicUsize = AtomicUsize::new(0);
+
+    const SIGNALS: [(i32, i32); 2] = [
+        (signal_hook::consts::SIGINT, 130),
+        (signal_hook::consts::SIGTERM, 143),
+    ];
+
+    /// Installs the handlers (once, first thing in `main`).
+    pub fn install() {
+        for (sig, code) in SIGNALS {
+            // The order matters: the conditional exits run before the flags are set, so the first
+            // signal in a cooperative section does not exit and the second one does.
+            let _ = signal_hook::flag::register_conditional_shutdown(sig, code, &IMMEDIATE);
+            let _ = signal_hook::flag::register_conditional_shutdown(sig, code, &STOP);
+            let _ = signal_hook::flag::register_usize(sig, &RECEIVED, sig as usize);
+            let _ = signal_hook::flag::register(sig, &STOP);
+        }
+    }
+
+    /// Whether a stop was asked for (checked by a run every step).
+    pub fn stop_requested() -> bool {
+        STOP.load(Ordering::SeqCst)
+    }
+
+    /// 130 after SIGINT, 143 after SIGTERM, `None` when no signal arrived.
+    pub fn exit_code() -> Option<u8> {
+        let sig = RECEIVED.load(Ordering::SeqCst) as i32;
+        SIGNALS
+            .iter()
+            .find(|(s, _)| *s == sig)
+            .map(|(_, code)| *code as u8)
+    }
+
+    /// While alive, a signal asks the run to stop instead of ending the process.
+    pub struct Cooperative(());
+
+    impl Cooperative {
+        pub fn begin() -> Cooperative {
+            IMMEDIATE.store(false, Ordering::SeqCst);
+            Cooperative(())
+        }
+    }
+
+    impl Drop for Cooperative {
+        fn drop(&mut self) {
+            IMMEDIATE.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// The marker error of a closed stdout (`| head`): the process ends quietly with exit 0.
+#[derive(Debug)]
+pub struct StdoutClosed;
+
+impl std::fmt::Display for StdoutClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("stdout closed")
+    }
+}
+
+impl std::error::Error for StdoutClosed {}
+
+/// Writes `text` to stdout and flushes it. A closed pipe gives [`StdoutClosed`]; any other failure
+/// (a full disk) is an I/O error naming stdout (exit 1), never a panic as `println!` would.
+pub fn emit(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(Error::io("stdout", e).into()),
+    }
+}
+
+/// A line on stderr; a closed or full stderr is ignored (it is only a note).
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+pub(crate) use note;
+
+/// `text` on one line: its lines trimmed and joined by spaces.
+pub fn one_line(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Ends the process for a command-line parse result: `--help` and `--version` print and exit 0;
+/// every parse error is one line (clap's first line, without its usage block) and exit 2.
+pub fn clap_exit(e: clap::Error) -> std::process::ExitCode {
+    use clap::error::ErrorKind;
+    use std::io::Write;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            std::process::ExitCode::SUCCESS
+        }
+        kind => {
+            let text = e.render().to_string();
+            let first = text
+                .lines()
+                .map(str::trim)
+                .find(|l| !l.is_empty())
+                .unwrap_or("invalid command line");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            let msg = if kind == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                "a subcommand is required".to_string()
+            } else {
+                first.to_string()
+            };
+            let _ = writeln!(std::io::stderr(), "error: {msg} (see --help)");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
 pub fn dispatch(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Explore(args) => explore::run(args),
@@ -96,10 +226,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Field(args) => field::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),
-        Command::Config(ConfigCommand::Default) => {
-            print!("{}", tensorscout::config::DEFAULT_TOML);
-            Ok(())
-        }
+        Command::Config(ConfigCommand::Default) => emit(tensorscout::config::DEFAULT_TOML),
     }
 }
 
@@ -138,9 +265,22 @@ fn parse_spawn(s: &str) -> std::result::Result<Pose2, String> {
     Ok(Pose2::new(v[0], v[1], v[2]))
 }
 
-/// Refuses an output path whose folder is missing, or an existing file unless `force`; checked
-/// before any work so that a long run never ends in a failed write.
-fn check_output(path: &Path, force: bool) -> tensorscout::Result<()> {
+/// Refuses an output path whose folder is missing or not writable, a folder, a name without the
+/// `extension` the writer needs (when given), or an existing file unless `force`; checked before any
+/// work so that a long run never ends in a failed write.
+fn check_output(path: &Path, force: bool, extension: Option<&str>) -> tensorscout::Result<()> {
+    if let Some(want) = extension {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if ext.as_deref() != Some(want) {
+            return Err(Error::usage(format!(
+                "{}: the output must be a .{want} file",
+                path.display()
+            )));
+        }
+    }
     let parent = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -154,6 +294,12 @@ fn check_output(path: &Path, force: bool) -> tensorscout::Result<()> {
             ),
         ));
     }
+    if path.is_dir() {
+        return Err(Error::usage(format!(
+            "{}: is a folder; name a file",
+            path.display()
+        )));
+    }
     if path.exists() && !force {
         return Err(Error::io(
             path,
@@ -162,6 +308,62 @@ fn check_output(path: &Path, force: bool) -> tensorscout::Result<()> {
                 "file exists; pass --force to overwrite it",
             ),
         ));
+    }
+    probe_writable(parent).map_err(|e| {
+        Error::io(
+            path,
+            std::io::Error::new(
+                e.kind(),
+                format!("cannot write in folder {}: {e}", parent.display()),
+            ),
+        )
+    })
+}
+
+/// Creates and removes a fresh file in `dir`: the one sure test that a later write will work (a
+/// permission bit check misses read-only mounts and ACLs).
+fn probe_writable(dir: &Path) -> std::io::Result<()> {
+    for n in 0..100 {
+        let probe = dir.join(format!(".tensorscout-probe-{}-{n}", std::process::id()));
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&probe)
+        {
+            Ok(_) => return std::fs::remove_file(&probe),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    Err(std::io::Error::other("no free probe file name"))
+}
+
+/// The same file, for two paths that may not exist yet: the canonical folder and the file name.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let key = |p: &Path| {
+        let parent = p
+            .parent()
+            .filter(|q| !q.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        (
+            std::fs::canonicalize(parent).unwrap_or_else(|_| parent.to_path_buf()),
+            p.file_name().map(|n| n.to_owned()),
+        )
+    };
+    key(a) == key(b)
+}
+
+/// Refuses two outputs on one path, or an output on an input (`(flag, path)` pairs).
+fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> tensorscout::Result<()> {
+    for (i, (fa, a)) in outputs.iter().enumerate() {
+        for (fb, b) in outputs[i + 1..].iter().chain(inputs) {
+            if same_file(a, b) {
+                return Err(Error::usage(format!(
+                    "{fa} and {fb} name the same file {}; choose another path",
+                    a.display()
+                )));
+            }
+        }
     }
     Ok(())
 }

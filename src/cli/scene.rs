@@ -1,6 +1,6 @@
 //! `tensorscout scene generate|import|info|render`.
 
-use super::{check_output, parse_spawn, ConfigArgs};
+use super::{check_distinct, check_output, emit, note, parse_spawn, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -22,7 +22,7 @@ pub enum SceneCommand {
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Floor area, m² (20–2000).
-        #[arg(long, default_value_t = 100.0)]
+        #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
         area: f64,
         /// Output OBJ path.
         #[arg(short, long, value_name = "PATH")]
@@ -76,7 +76,7 @@ pub struct SceneArgs {
     /// Scene file: OBJ, PLY, ROS map `.yaml` or HouseExpo `.json`.
     scene: PathBuf,
     /// Start pose `X,Y[,YAW]` (default: the scene's own, else automatic).
-    #[arg(long, value_name = "X,Y[,YAW]", value_parser = parse_spawn)]
+    #[arg(long, value_name = "X,Y[,YAW]", value_parser = parse_spawn, allow_hyphen_values = true)]
     spawn: Option<Pose2>,
     #[command(flatten)]
     config: ConfigArgs,
@@ -98,8 +98,9 @@ impl SceneArgs {
         let scene = scene::load(&self.scene, &cfg.scene)?;
         let world = World::with_cache(&scene, &cfg, self.spawn, &ObservableCache::user())?;
         if let Some(w) = world.observable_source.warning() {
-            eprintln!("{w}");
+            note!("{w}");
         }
+        warn_scene(&scene, &world.ground_truth);
         Ok((scene, world))
     }
 }
@@ -113,11 +114,11 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             output,
             force,
         } => {
-            check_output(&output, force)?;
+            check_output(&output, force, Some("obj"))?;
             let generated = generate::generate(style, seed, area)?;
             let comments = generated.header();
             scene::write_obj(&generated.mesh, Some(generated.spawn), &comments, &output)?;
-            eprintln!(
+            note!(
                 "wrote {} ({} triangles, {} rooms)",
                 output.display(),
                 generated.mesh.triangles.len(),
@@ -131,10 +132,12 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             config,
             force,
         } => {
-            check_output(&output, force)?;
+            check_output(&output, force, Some("obj"))?;
+            check_distinct(&[("-o", &output)], &[("the input", &input)])?;
             let cfg = config.load()?;
             let scene = scene::load(&input, &cfg.scene)?;
-            let gt = GroundTruth::build(&scene.mesh, scene.spawn, &cfg)?;
+            let gt = scene::build_ground_truth(&scene, None, &cfg)?;
+            warn_scene(&scene, &gt);
             let comments = vec![format!(
                 "imported from {} ({}) by tensorscout {}",
                 input.display(),
@@ -142,7 +145,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
                 tensorscout::VERSION
             )];
             scene::write_obj(&scene.mesh, Some(gt.spawn), &comments, &output)?;
-            eprintln!(
+            note!(
                 "wrote {} ({} triangles)",
                 output.display(),
                 scene.mesh.triangles.len()
@@ -156,18 +159,18 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             info.observable_surface_voxels = world.observable.surface_voxels().len();
             info.observable_positions = world.observable.positions();
             if args.json {
-                println!("{}", serde_json::to_string_pretty(&info)?);
+                emit(&format!("{}\n", serde_json::to_string_pretty(&info)?))
             } else {
-                print_info(&info);
+                emit(&info_text(&info))
             }
-            Ok(())
         }
         SceneCommand::Render {
             scene,
             output,
             force,
         } => {
-            check_output(&output, force)?;
+            check_output(&output, force, Some("png"))?;
+            check_distinct(&[("-o", &output)], &[("the scene", &scene.scene)])?;
             let (_, world) = scene.load()?;
             render::draw_ground_truth(&world.ground_truth, Some(&world.observable))
                 .save(&output)?;
@@ -176,14 +179,27 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
     }
 }
 
+/// The scene's load warnings and an open-region warning, on stderr.
+fn warn_scene(scene: &scene::Scene, gt: &GroundTruth) {
+    for w in &scene.warnings {
+        note!("warning: {w}");
+    }
+    if let Some(w) = scene::open_region_warning(scene, gt) {
+        note!("warning: {w}");
+    }
+}
+
 fn parse_style(s: &str) -> std::result::Result<generate::Style, String> {
     generate::Style::parse(s).map_err(|e| e.to_string())
 }
 
-fn print_info(i: &scene::ground_truth::SceneInfo) {
-    println!("scene          {} ({})", i.name, i.path);
-    println!("source         {}  hash {}", i.source, i.content_hash);
-    println!(
+fn info_text(i: &scene::ground_truth::SceneInfo) -> String {
+    use std::fmt::Write as _;
+    let mut o = String::new();
+    let _ = writeln!(o, "scene          {} ({})", i.name, i.path);
+    let _ = writeln!(o, "source         {}  hash {}", i.source, i.content_hash);
+    let _ = writeln!(
+        o,
         "bounds         x {:.2} .. {:.2}  y {:.2} .. {:.2}  z {:.2} .. {:.2} m",
         i.bounds_min[0],
         i.bounds_max[0],
@@ -192,14 +208,20 @@ fn print_info(i: &scene::ground_truth::SceneInfo) {
         i.bounds_min[2],
         i.bounds_max[2]
     );
-    println!("triangles      {} ({} vertices)", i.triangles, i.vertices);
-    println!("floor height   {:.3} m (moved to z = 0)", i.floor_z);
-    println!("reachable      {:.1} m² of floor", i.reachable_area_m2);
-    println!(
+    let _ = writeln!(
+        o,
+        "triangles      {} ({} vertices)",
+        i.triangles, i.vertices
+    );
+    let _ = writeln!(o, "floor height   {:.3} m (moved to z = 0)", i.floor_z);
+    let _ = writeln!(o, "reachable      {:.1} m² of floor", i.reachable_area_m2);
+    let _ = writeln!(
+        o,
         "observable     {:.1} m³ in the height band ({} surface voxels; {} camera positions)",
         i.observable_volume_m3, i.observable_surface_voxels, i.observable_positions
     );
-    println!(
+    let _ = writeln!(
+        o,
         "spawn          ({:.2}, {:.2}, yaw {:.2}){}",
         i.spawn.x,
         i.spawn.y,
@@ -210,4 +232,5 @@ fn print_info(i: &scene::ground_truth::SceneInfo) {
             " (automatic or given)"
         }
     );
+    o
 }

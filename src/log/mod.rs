@@ -35,7 +35,11 @@ pub const RESULT_METADATA: &str = "tensorscout.result";
 /// What identifies a run well enough to repeat it (stored as MCAP metadata).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunIdentity {
+    /// The scene path as given on the command line.
     pub scene_path: String,
+    /// The same path made absolute when the run started (empty in logs written before it was
+    /// stored), so that `replay --verify` works from any folder.
+    pub scene_abs_path: String,
     pub scene_hash: String,
     pub planner: String,
     pub seed: u64,
@@ -57,6 +61,9 @@ impl RunIdentity {
     ) -> Self {
         RunIdentity {
             scene_path: scene_path.display().to_string(),
+            scene_abs_path: std::path::absolute(scene_path)
+                .map(|p| p.display().to_string())
+                .unwrap_or_default(),
             scene_hash: scene.content_hash.clone(),
             planner: planner.name().to_string(),
             seed: cfg.seed,
@@ -72,6 +79,7 @@ impl RunIdentity {
     fn to_map(&self) -> std::collections::BTreeMap<String, String> {
         [
             ("scene_path", &self.scene_path),
+            ("scene_abs_path", &self.scene_abs_path),
             ("scene_hash", &self.scene_hash),
             ("planner", &self.planner),
             ("seed", &self.seed.to_string()),
@@ -89,6 +97,7 @@ impl RunIdentity {
         let get = |k: &str| m.get(k).cloned();
         Some(RunIdentity {
             scene_path: get("scene_path")?,
+            scene_abs_path: get("scene_abs_path").unwrap_or_default(),
             scene_hash: get("scene_hash")?,
             planner: get("planner")?,
             seed: get("seed")?.parse().ok()?,
@@ -160,6 +169,7 @@ mod tests {
     fn identity_round_trips_through_metadata() {
         let id = RunIdentity {
             scene_path: "s.obj".into(),
+            scene_abs_path: "/data/s.obj".into(),
             scene_hash: "00ff".into(),
             planner: "greedy".into(),
             seed: 7,

@@ -97,6 +97,9 @@ struct Comparer<'a> {
     recorded: Vec<&'a super::LoggedMessage>,
     next: usize,
     divergence: Option<Divergence>,
+    /// The log was cut off: running past its last message is not a divergence.
+    prefix_only: bool,
+    exhausted: &'a std::cell::Cell<bool>,
 }
 
 /// JSON pointer of the first difference between `a` and `b` (ignoring wall-clock `stage_ms`).
@@ -140,6 +143,10 @@ impl Sink for Comparer<'_> {
         }
         let time_s = time_ns as f64 * 1e-9;
         let Some(rec) = self.recorded.get(self.next) else {
+            if self.prefix_only {
+                self.exhausted.set(true);
+                return;
+            }
             self.divergence = Some(Divergence {
                 time_s,
                 topic: topic.name.into(),
@@ -169,9 +176,129 @@ impl Sink for Comparer<'_> {
     }
 }
 
+/// What `replay --verify` found.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Verification {
+    /// The first place the re-run differs from the log; `None` = identical.
+    pub divergence: Option<Divergence>,
+    /// When the log stops before the run's end (interrupted, or cut off): the simulated time up to
+    /// which the comparison went and why it stopped there.
+    pub partial: Option<(f64, String)>,
+    /// The scene file the re-run used (found by path, absolute path, or hash next to the log).
+    pub scene: std::path::PathBuf,
+}
+
+/// Stops a re-run after as many steps as the interrupted original ran, so that both end alike.
+struct StopAfter<'a, S: Sink> {
+    inner: &'a mut Recorder<S>,
+    steps: Option<u64>,
+    seen: u64,
+    /// Set when the log has nothing more to compare (a cut-off log): stop at once.
+    exhausted: &'a std::cell::Cell<bool>,
+}
+
+impl<S: Sink> sim::Observer for StopAfter<'_, S> {
+    fn on_step(&mut self, view: &sim::StepView) {
+        self.seen += 1;
+        self.inner.on_step(view);
+    }
+    fn on_plan(
+        &mut self,
+        time_s: f64,
+        action: &crate::plan::Action,
+        map: &crate::map::Map,
+        tour: &[nalgebra::Point2<f64>],
+    ) {
+        self.inner.on_plan(time_s, action, map, tour);
+    }
+    fn on_finish(&mut self, result: &RunResult) {
+        self.inner.on_finish(result);
+    }
+    fn stop_requested(&self) -> bool {
+        self.steps.is_some_and(|n| self.seen >= n)
+            || self.exhausted.get()
+            || self.inner.stop_requested()
+    }
+}
+
+/// The scene file of a logged run: the path as recorded (relative to the working folder), the
+/// absolute path recorded with it, the same file name next to the log, or any file next to the
+/// log with the same extension and the recorded content hash (the log was moved with its scene).
+fn find_scene(
+    id: &RunIdentity,
+    cfg: &Config,
+    log_path: Option<&Path>,
+) -> Result<crate::scene::Scene> {
+    let recorded = Path::new(&id.scene_path);
+    let mut candidates = vec![recorded.to_path_buf()];
+    if !id.scene_abs_path.is_empty() {
+        candidates.push(id.scene_abs_path.clone().into());
+    }
+    let log_dir = log_path.map(|p| {
+        p.parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf()
+    });
+    if let (Some(dir), Some(name)) = (&log_dir, recorded.file_name()) {
+        candidates.push(dir.join(name));
+    }
+    let mut changed = None;
+    let mut tried = std::collections::BTreeSet::new();
+    let mut try_path = |p: &Path| -> Option<crate::scene::Scene> {
+        if !p.is_file() || !tried.insert(std::path::absolute(p).unwrap_or(p.to_path_buf())) {
+            return None;
+        }
+        match crate::scene::load(p, &cfg.scene) {
+            Ok(s) if s.content_hash == id.scene_hash => Some(s),
+            Ok(s) => {
+                changed.get_or_insert((p.to_path_buf(), s.content_hash));
+                None
+            }
+            Err(_) => None,
+        }
+    };
+    for c in &candidates {
+        if let Some(s) = try_path(c) {
+            return Ok(s);
+        }
+    }
+    if let Some(dir) = &log_dir {
+        let ext = recorded.extension();
+        let mut entries: Vec<_> = std::fs::read_dir(dir)
+            .map(|rd| rd.filter_map(|e| e.ok().map(|e| e.path())).collect())
+            .unwrap_or_default();
+        entries.sort();
+        for p in entries.iter().filter(|p| p.extension() == ext) {
+            if let Some(s) = try_path(p) {
+                return Ok(s);
+            }
+        }
+    }
+    Err(match changed {
+        Some((p, hash)) => Error::Runtime(format!(
+            "scene {} changed: content hash {hash} differs from the logged {}",
+            p.display(),
+            id.scene_hash
+        )),
+        None => Error::Runtime(format!(
+            "scene {} not found (tried the recorded path{}, and files next to the log with hash {})",
+            id.scene_path,
+            if id.scene_abs_path.is_empty() {
+                String::new()
+            } else {
+                format!(", {}", id.scene_abs_path)
+            },
+            id.scene_hash
+        )),
+    })
+}
+
 /// Re-runs the logged run from its recorded scene, config and seed and compares every message
-/// (poses, depth, grids, plans, metrics apart from wall-clock `stage_ms`). `Ok(None)` = identical.
-pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
+/// (poses, depth, grids, plans, metrics apart from wall-clock `stage_ms`). A log that ends early
+/// (an interrupted run, or a cut-off file) is compared up to where it ends, and says so.
+/// `log_path` locates a scene that moved with the log.
+pub fn verify(log: &LogContents, log_path: Option<&Path>) -> Result<Verification> {
     let id = log
         .identity
         .as_ref()
@@ -181,37 +308,58 @@ pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
     cfg.validate()?;
     let planner = <PlannerKind as clap::ValueEnum>::from_str(&id.planner, true)
         .map_err(|_| Error::Runtime(format!("log names an unknown planner `{}`", id.planner)))?;
-    let scene_path = Path::new(&id.scene_path);
-    let scene = crate::scene::load(scene_path, &cfg.scene)?;
-    if scene.content_hash != id.scene_hash {
-        return Err(Error::Runtime(format!(
-            "scene {} changed: content hash {} differs from the logged {}",
-            scene_path.display(),
-            scene.content_hash,
-            id.scene_hash
-        )));
-    }
+    let scene = find_scene(id, &cfg, log_path)?;
     let spawn = parse_spawn(&id.spawn);
     let world = World::with_cache(&scene, &cfg, spawn, &crate::sim::ObservableCache::user())?;
+    let interrupted = log
+        .result
+        .as_ref()
+        .filter(|r| r.termination == sim::Termination::Interrupted);
+    // Without a recorded result the file was cut off: compare the messages it holds.
+    let cut_off = log.result.is_none();
+    let exhausted = std::cell::Cell::new(false);
     let comparer = Comparer {
         recorded: log.messages.iter().collect(),
         next: 0,
         divergence: None,
+        prefix_only: cut_off,
+        exhausted: &exhausted,
     };
     let mut rec = Recorder::new(comparer, &cfg, None);
-    sim::run(&scene, world, &cfg, planner, &mut rec)?;
+    let mut observer = StopAfter {
+        inner: &mut rec,
+        steps: interrupted.map(|r| r.steps),
+        seen: 0,
+        exhausted: &exhausted,
+    };
+    sim::run(&scene, world, &cfg, planner, &mut observer)?;
     let c = rec.sink;
-    if c.divergence.is_some() {
-        return Ok(c.divergence);
+    let end_s = log
+        .messages
+        .last()
+        .map_or(0.0, |m| m.log_time_ns as f64 * 1e-9);
+    let partial = if let Some(r) = interrupted {
+        Some((r.sim_time_s, "the run was interrupted there".to_string()))
+    } else if cut_off {
+        Some((end_s, "the log ends there".to_string()))
+    } else {
+        None
+    };
+    let mut divergence = c.divergence;
+    if divergence.is_none() && !cut_off {
+        if let Some(extra) = c.recorded.get(c.next) {
+            divergence = Some(Divergence {
+                time_s: extra.log_time_ns as f64 * 1e-9,
+                topic: extra.topic.clone(),
+                field: "message in the log but not in the re-run (re-run is shorter)".into(),
+            });
+        }
     }
-    if let Some(extra) = c.recorded.get(c.next) {
-        return Ok(Some(Divergence {
-            time_s: extra.log_time_ns as f64 * 1e-9,
-            topic: extra.topic.clone(),
-            field: "message in the log but not in the re-run (re-run is shorter)".into(),
-        }));
-    }
-    Ok(None)
+    Ok(Verification {
+        divergence,
+        partial,
+        scene: scene.path,
+    })
 }
 
 /// `X,Y,YAW` as stored in [`RunIdentity::spawn`].

@@ -17,6 +17,9 @@ use std::path::Path;
 
 /// Raster cell edge, metres.
 pub const RASTER_M: f64 = 0.05;
+/// Largest raster imported: 16 M cells, a 200 × 200 m plan (found by the fuzz run, which gave a
+/// plan a 915 m coordinate).
+pub const MAX_RASTER_CELLS: usize = 16_000_000;
 /// Solid ring around the outline, in raster cells (0.1 m, HouseExpo's wall thickness).
 const RING_CELLS: usize = 2;
 
@@ -69,6 +72,18 @@ pub fn import_bytes(path: &Path, bytes: &[u8], cfg: &SceneConfig) -> Result<Impo
     let origin = [min[0] - ring, min[1] - ring];
     let nx = ((max[0] - min[0]) / RASTER_M).ceil() as usize + 2 * RING_CELLS;
     let ny = ((max[1] - min[1]) / RASTER_M).ceil() as usize + 2 * RING_CELLS;
+    // A house plan spans tens of metres; a plan whose raster is far larger (a damaged or mis-scaled
+    // coordinate) would take minutes and gigabytes to rasterise and extrude.
+    if nx.saturating_mul(ny) > MAX_RASTER_CELLS {
+        return Err(Error::scene(
+            path,
+            format!(
+                "plan of {:.1} × {:.1} m is too large to import at {RASTER_M} m ({nx} × {ny} cells, more than {MAX_RASTER_CELLS}); wrong units?",
+                max[0] - min[0],
+                max[1] - min[1]
+            ),
+        ));
+    }
     let free = rasterise_polygon(&verts, origin, RASTER_M, nx, ny);
     let free_cells = free.iter().filter(|&&f| f).count();
     if free_cells == 0 {
@@ -221,6 +236,27 @@ mod tests {
             "{area} vs {outline_area}"
         );
         assert!(area < union_area, "{area} vs room boxes {union_area}");
+    }
+
+    #[test]
+    fn huge_plan_is_refused_quickly() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.json");
+        let e = import_bytes(
+            &p,
+            br#"{"verts": [[0.1, 0.1], [915, 0.1], [915, 517], [0.1, 517]]}"#,
+            &cfg(),
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: plan of 914.9 × 516.9 m is too large to import at 0.05 m (18302 × 10342 cells, more than 16000000); wrong units?",
+                p.display()
+            )
+        );
     }
 
     #[test]

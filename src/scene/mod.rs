@@ -35,6 +35,8 @@ pub struct Scene {
     pub floor_z: f64,
     /// "obj", "ply", "ros-map", "houseexpo", or "generated:<style>".
     pub source: String,
+    /// Things accepted but worth a one-line warning (e.g. OBJ faces with fewer than 3 vertices).
+    pub warnings: Vec<String>,
 }
 
 /// The marker of a spawn line: `# tensorscout spawn X Y YAW` in OBJ, `comment tensorscout spawn …`
@@ -43,15 +45,30 @@ const SPAWN_MARKER: &str = "tensorscout spawn";
 
 /// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.yaml`/`.yml`, `.json`).
 pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
-    let ext = path
+    const EXPECTED: &str = "expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan";
+    if path.is_dir() {
+        return Err(Error::usage(format!(
+            "{}: is a folder, not a scene file ({EXPECTED})",
+            path.display()
+        )));
+    }
+    let Some(ext) = path
         .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+    else {
+        return Err(Error::usage(format!(
+            "{}: the scene file has no extension ({EXPECTED})",
+            path.display()
+        )));
+    };
+    let mut warnings = Vec::new();
     let (mut mesh, spawn, hash_bytes, source) = match ext.as_str() {
         "obj" | "ply" => {
             let bytes = read_nonempty(path)?;
             let (mut mesh, spawn) = if ext == "obj" {
+                if let Some(w) = scan_obj(path, &bytes)? {
+                    warnings.push(w);
+                }
                 parse_obj(path, &bytes)?
             } else {
                 parse_ply(path, &bytes)?
@@ -72,7 +89,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         }
         _ => {
             return Err(Error::usage(format!(
-                "{}: unknown scene format `.{ext}` (expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan)",
+                "{}: unknown scene format `.{ext}` ({EXPECTED})",
                 path.display()
             )))
         }
@@ -90,17 +107,116 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         content_hash: content_hash(&hash_bytes),
         floor_z,
         source,
+        warnings,
     })
 }
+
+/// The ground truth of `scene` from `spawn`, else the scene's own spawn line, else automatic. A
+/// spawn line that the ground truth refuses (inside a wall) is named with its file.
+pub fn build_ground_truth(
+    scene: &Scene,
+    spawn: Option<Pose2>,
+    cfg: &crate::Config,
+) -> Result<GroundTruth> {
+    GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg).map_err(|e| match (spawn, e) {
+        (None, Error::Usage(msg)) if scene.spawn.is_some() => Error::usage(format!(
+            "{}: the file's `{SPAWN_MARKER}` line: {msg}",
+            scene.path.display()
+        )),
+        (_, e) => e,
+    })
+}
+
+/// A warning when the explorable region reaches the border of the ground-truth grid: the scene is
+/// open (or has no enclosed free space), so the spawn stands outside any room and the robot can
+/// drive off into the open.
+pub fn open_region_warning(scene: &Scene, gt: &GroundTruth) -> Option<String> {
+    let g = &gt.grid;
+    let on_border = (0..g.cells()).any(|i| {
+        let c = g.cell(i);
+        gt.in_region(i)
+            && (c.x == 0 || c.y == 0 || c.x as usize + 1 == g.nx || c.y as usize + 1 == g.ny)
+    });
+    on_border.then(|| {
+        format!(
+            "{}: the free space around the spawn ({:.2}, {:.2}) is not enclosed (an open mesh?); the robot can leave the scene",
+            scene.path.display(),
+            gt.spawn.x,
+            gt.spawn.y
+        )
+    })
+}
+
+/// Checks an OBJ's faces before `tobj` sees them: an index beyond the file's vertices, texture
+/// coordinates or normals is an error naming its line (`tobj` would overflow computing the offset
+/// of a huge one), and faces with fewer than 3 vertices, which no loader can use, give a warning.
+fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut counts = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            _ => {}
+        }
+    }
+    const KINDS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    let mut short = 0usize;
+    let mut first = 0usize;
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("f") {
+            continue;
+        }
+        let mut corners = 0;
+        for w in words {
+            corners += 1;
+            for (k, part) in w.split('/').take(3).enumerate() {
+                let Ok(i) = part.parse::<i64>() else {
+                    continue; // empty (`1//2`) or malformed: tobj reports the latter
+                };
+                if i == 0 || i.unsigned_abs() > counts[k].unsigned_abs() {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "line {}: face index {i} is out of range for the file's {} {}",
+                            n + 1,
+                            counts[k],
+                            KINDS[k]
+                        ),
+                    ));
+                }
+            }
+        }
+        if corners < 3 {
+            if short == 0 {
+                first = n + 1;
+            }
+            short += 1;
+        }
+    }
+    Ok((short > 0).then(|| {
+        format!(
+            "{}: {short} face(s) with fewer than 3 vertices skipped (first on line {first})",
+            path.display()
+        )
+    }))
+}
+
+/// Largest scene (or map image, or plan) file read: far above any real indoor scene, and a bound
+/// on what a mistaken path (a device, a huge unrelated file) can make the loader read.
+pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 30;
 
 /// 16 hex digits of FNV-1a 64 over `bytes`.
 pub fn content_hash(bytes: &[u8]) -> String {
     format!("{:016x}", crate::util::fnv1a64(bytes))
 }
 
-/// Reads a whole file; a missing file is an I/O error, an empty (or blank) one a scene error.
+/// Reads a whole regular file of at most [`MAX_SCENE_FILE_BYTES`]; a missing file is an I/O error,
+/// a device, FIFO or folder, an oversized or an empty (or blank) file a scene error.
 pub(crate) fn read_nonempty(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::util::read_regular_file(path, MAX_SCENE_FILE_BYTES)?;
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(Error::scene(path, "file is empty"));
     }
@@ -174,6 +290,20 @@ fn validate(path: &Path, mesh: &TriMesh, cfg: &SceneConfig) -> Result<f64> {
         cfg,
     )?;
     const EPS: f64 = 1e-6;
+    let area: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize].cast::<f64>());
+            (b - a).cross(&(c - a)).norm() / 2.0
+        })
+        .sum();
+    if area <= EPS * EPS {
+        return Err(Error::scene(
+            path,
+            "mesh is degenerate: every triangle has zero area",
+        ));
+    }
     if extent[2] <= EPS {
         return Err(Error::scene(
             path,
@@ -376,10 +506,16 @@ pub fn write_obj(
 /// Rejects a scene larger than `scene.max_extent_m` along any axis (usually wrong units).
 pub(crate) fn check_extent(path: &Path, what: &str, extent: f64, cfg: &SceneConfig) -> Result<()> {
     if extent > cfg.max_extent_m {
+        // Scientific notation for absurd values: a coordinate of 1e300 must not print 300 digits.
+        let shown = if extent < 1e6 {
+            format!("{extent:.1}")
+        } else {
+            format!("{extent:.3e}")
+        };
         return Err(Error::scene(
             path,
             format!(
-                "{what} extent {extent:.1} m exceeds scene.max_extent_m = {} m (wrong units?)",
+                "{what} extent {shown} m exceeds scene.max_extent_m = {} m (wrong units?)",
                 cfg.max_extent_m
             ),
         ));
@@ -555,7 +691,7 @@ f 2 3 7 6
         assert_eq!(
             err(d, "r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 9\n"),
             format!(
-                "{}: cannot parse OBJ: face vertex index out of bounds",
+                "{}: line 4: face index 9 is out of range for the file's 3 vertices",
                 pd("r.obj")
             )
         );
@@ -621,6 +757,24 @@ f 2 3 7 6
     }
 
     use ply_rs_bw::parser::Parser;
+
+    /// A huge face index (a normal index here) made `tobj` overflow computing its offset; it is
+    /// now an error naming the line (found by the fuzz harness).
+    #[test]
+    fn huge_obj_face_index_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 1\nvn 0 0 1\nf 1//1 2//1 3//6148914691236517206\n";
+        assert_eq!(
+            err(d, "n.obj", text),
+            format!(
+                "{}: line 5: face index 6148914691236517206 is out of range for the file's 1 normals",
+                d.join("n.obj").display()
+            )
+        );
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 -9223372036854775808\n";
+        assert!(err(d, "m.obj", text).contains("line 4: face index -9223372036854775808"));
+    }
 
     /// Corrupted real files (truncated, bytes flipped) give errors or meshes, never a panic.
     #[test]

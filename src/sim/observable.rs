@@ -537,6 +537,7 @@ mod tests {
             content_hash: "test".into(),
             floor_z: 0.0,
             source: "obj".into(),
+            warnings: Vec::new(),
         }
     }
 

@@ -79,7 +79,7 @@ pub struct World {
 
 /// Stream of the run's ChaCha generator that draws a random start: separate from every planner's
 /// draws, so a seed gives the same start whichever planner runs.
-const SPAWN_STREAM: u64 = 0x7370_6177_6e;
+const SPAWN_STREAM: u64 = 0x0073_7061_776e;
 
 impl World {
     /// Voxelises the scene, builds its BVH and computes the observable set without a disk cache;
@@ -103,7 +103,7 @@ impl World {
                 "an explicit start pose and `sim.spawn = \"random\"` exclude each other",
             ));
         }
-        let ground_truth = GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg)?;
+        let ground_truth = crate::scene::build_ground_truth(scene, spawn, cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
         let (observable, observable_source) = cache.get_or_compute(scene, &ground_truth, &bvh, cfg);
         let ground_truth = match cfg.sim.spawn {
@@ -433,6 +433,7 @@ mod tests {
             content_hash: "room".into(),
             floor_z: 0.0,
             source: "obj".into(),
+            warnings: Vec::new(),
         }
     }
 

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 /// Every shipped scene (`scenes/*.obj`), sorted by name.
+#[allow(dead_code)]
 pub fn shipped_scenes() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scenes: Vec<_> = std::fs::read_dir(dir)
@@ -17,6 +18,7 @@ pub fn shipped_scenes() -> Vec<PathBuf> {
 
 /// The observable-set cache the scenario tests share (under the build's temporary folder, so it
 /// survives between test runs and is never the user's own cache).
+#[allow(dead_code)]
 pub fn cache_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("tensorscout-cache")
 }
