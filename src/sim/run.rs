@@ -5,13 +5,13 @@ use super::metrics::{
 };
 use super::motion::{MotionExecutor, MotionStatus};
 use super::robot::Robot;
-use crate::config::Config;
+use crate::config::{Config, DepthRenderer};
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
 use crate::plan::{Action, PlanContext, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
-use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
+use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
 use nalgebra::Point2;
 use std::time::Instant;
@@ -61,10 +61,12 @@ pub struct RunOutput {
     pub ground_truth: GroundTruth,
 }
 
-/// The world a run happens in: the scene's ground truth and its ray-casting structure, built once.
+/// The world a run happens in: the scene's ground truth, its ray-casting structure (collisions, and
+/// depth with `camera.renderer = "raycast"`) and its rasteriser (depth by default), built once.
 pub struct World {
     pub ground_truth: GroundTruth,
     pub bvh: MeshBvh,
+    pub raster: MeshRaster,
 }
 
 impl World {
@@ -72,7 +74,12 @@ impl World {
     pub fn new(scene: &Scene, cfg: &Config, spawn: Option<Pose2>) -> Result<World> {
         let ground_truth = GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
-        Ok(World { ground_truth, bvh })
+        let raster = MeshRaster::new(&scene.mesh)?;
+        Ok(World {
+            ground_truth,
+            bvh,
+            raster,
+        })
     }
 }
 
@@ -100,6 +107,7 @@ pub fn run_planner(
     let World {
         ground_truth: gt,
         bvh,
+        raster,
     } = world;
     let grid = gt.grid;
     let mut map = Map::new(grid, cfg);
@@ -158,7 +166,10 @@ pub fn run_planner(
         let t0 = Instant::now();
         let fired = step.is_multiple_of(camera_period);
         if fired {
-            camera.capture_into(&bvh, robot.pose, &mut frame);
+            match cfg.camera.renderer {
+                DepthRenderer::Raster => camera.render_into(&raster, robot.pose, &mut frame),
+                DepthRenderer::Raycast => camera.capture_into(&bvh, robot.pose, &mut frame),
+            }
         }
         let t1 = Instant::now();
         // Map.
