@@ -50,17 +50,21 @@ fn on_silhouette(f: &DepthFrame, i: usize) -> bool {
     })
 }
 
-/// Poses spread over the scene's floor where the robot's disc is clear of the mesh, any heading.
+/// Poses spread over the scene's floor where the robot's disc is clear of the mesh, any heading;
+/// every other one within 0.15 m of a surface (where grazing rays are most common).
 fn poses(bvh: &MeshBvh, mesh: &tensorscout::scene::TriMesh, n: usize, seed: u64) -> Vec<Pose2> {
     let (lo, hi) = mesh.bounds().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut out = Vec::new();
-    for _ in 0..n * 200 {
+    for _ in 0..n * 2000 {
         if out.len() == n {
             break;
         }
         let (x, y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
-        if !bvh.cylinder_intersects(x, y, 0.25, 0.1, 1.2) {
+        let near_wall = out.len() % 2 == 1;
+        if !bvh.cylinder_intersects(x, y, 0.25, 0.1, 1.2)
+            && (!near_wall || bvh.cylinder_intersects(x, y, 0.4, 0.1, 1.2))
+        {
             out.push(Pose2::new(x, y, rng.random_range(-3.2..3.2)));
         }
     }
@@ -74,10 +78,11 @@ fn raster_frames_agree_with_the_ray_caster_except_on_silhouettes() {
     let mut big = cfg.camera.clone();
     (big.width, big.height) = (640, 480);
     let cameras = [
-        (DepthCamera::new(&cfg.camera), 60usize),
+        (DepthCamera::new(&cfg.camera), 200usize),
         (DepthCamera::new(&big), 2),
     ];
     let (mut total, mut differ, mut hits, mut near, mut none) = (0usize, 0usize, 0, 0, 0);
+    let mut inexact = 0usize;
     for (k, path) in scenes().iter().enumerate() {
         let scene = tensorscout::scene::load(path, &cfg.scene).unwrap();
         let bvh = MeshBvh::new(&scene.mesh).unwrap();
@@ -100,6 +105,9 @@ fn raster_frames_agree_with_the_ray_caster_except_on_silhouettes() {
                     } else {
                         none += 1;
                     }
+                    if a.to_bits() != b.to_bits() && !(a.is_nan() && b.is_nan()) {
+                        inexact += 1;
+                    }
                     if !agree(a, b) {
                         scene_differ += 1;
                         assert!(
@@ -115,7 +123,7 @@ fn raster_frames_agree_with_the_ray_caster_except_on_silhouettes() {
         differ += scene_differ;
     }
     eprintln!(
-        "{total} pixels ({hits} hits, {none} no hit, {near} too near): {differ} differ ({:.4}%), all on silhouettes",
+        "{total} pixels ({hits} hits, {none} no hit, {near} too near): {differ} differ by more than 1 mm ({:.4}%), all on silhouettes; {inexact} are not bit-identical",
         100.0 * differ as f64 / total as f64
     );
     // Every kind of reading was exercised.
