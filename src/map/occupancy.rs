@@ -343,13 +343,15 @@ impl Occupancy {
                 let (mut newly, mut changed, mut known) = (Vec::new(), Vec::new(), 0usize);
                 let base = iz * cells;
                 for (lo, hi) in rows(iz) {
-                    for w in lo >> 6..=hi >> 6 {
-                        let mut word = passed[w];
+                    let (w0, w1) = (lo >> 6, hi >> 6);
+                    for (k, &bits) in passed[w0..=w1].iter().enumerate() {
+                        let w = w0 + k;
+                        let mut word = bits;
                         // Keep this row's bits only (a word may hold the ends of two rows).
-                        if w == lo >> 6 {
+                        if w == w0 {
                             word &= u64::MAX << (lo & 63);
                         }
-                        if w == hi >> 6 {
+                        if w == w1 {
                             word &= u64::MAX >> (63 - (hi & 63));
                         }
                         while word != 0 {

@@ -104,7 +104,7 @@ impl Setup {
         }
         let c0 = (lo.floor() - 1.0).max(self.cols[0] as f64);
         let c1 = (hi.ceil() + 1.0).min(self.cols[1] as f64);
-        (c0 <= c1).then(|| [c0 as usize, c1 as usize])
+        (c0 <= c1).then_some([c0 as usize, c1 as usize])
     }
 }
 
@@ -386,7 +386,7 @@ impl MeshRaster {
         let span = |lo: f64, hi: f64, n: usize| -> Option<[usize; 2]> {
             let a = (lo.floor() - 1.0).max(0.0);
             let b = (hi.ceil() + 1.0).min(n as f64 - 1.0);
-            (a <= b).then(|| [a as usize, b as usize])
+            (a <= b).then_some([a as usize, b as usize])
         };
         let cols = span(u0, u1, cam.width)?;
         let rows = span(v0, v1, cam.height)?;
