@@ -113,6 +113,18 @@ pub struct CameraConfig {
     pub height: usize,
     pub mount_height_m: f64,
     pub rate_hz: f64,
+    pub renderer: DepthRenderer,
+}
+
+/// How the depth camera computes its frames (see `src/sensor`). Both give the same depths along the
+/// same pixel rays, up to silhouette pixels (`tests/raster_vs_raycast.rs` counts them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthRenderer {
+    /// Z-buffer rasterisation of the scene mesh (the fast default).
+    Raster,
+    /// One BVH ray per pixel (the reference).
+    Raycast,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

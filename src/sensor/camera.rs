@@ -1,5 +1,7 @@
-//! The forward-facing pinhole depth camera: one ray per pixel centre, cast into the scene mesh.
+//! The forward-facing pinhole depth camera: one ray per pixel centre, cast into the scene mesh or
+//! rendered by rasterisation along the same rays.
 
+use super::raster::{MeshRaster, RasterCamera};
 use super::raycast::MeshBvh;
 use crate::config::CameraConfig;
 use crate::Pose2;
@@ -14,6 +16,9 @@ pub struct DepthCamera {
     mount_height: f32,
     min_range: f32,
     max_range: f32,
+    /// Tangents of the half fields of view (horizontal, vertical).
+    tan_h: f32,
+    tan_v: f32,
     /// Unit ray directions in the camera frame (x forward, y left, z up), row-major from the top row.
     /// Computed once: through the centres of the pixels of a pinhole image plane, so they are evenly
     /// spaced in tangent, not in angle.
@@ -60,6 +65,8 @@ impl DepthCamera {
             mount_height: cfg.mount_height_m as f32,
             min_range: cfg.min_range_m as f32,
             max_range: cfg.max_range_m as f32,
+            tan_h: tan_h as f32,
+            tan_v: tan_v as f32,
             cam_dirs,
         }
     }
@@ -102,8 +109,7 @@ impl DepthCamera {
             .zip(self.cam_dirs.par_iter())
             .with_min_len(256)
             .for_each(|((dir, range), c)| {
-                // Yaw only: rotate the camera-frame direction about z.
-                *dir = Vector3::new(cos * c.x - sin * c.y, sin * c.x + cos * c.y, c.z);
+                *dir = world_dir(cos, sin, c);
                 *range = match bvh.cast(origin, *dir, max_range) {
                     None => f32::INFINITY,
                     Some(d) if d < min_range => f32::NAN,
@@ -111,6 +117,66 @@ impl DepthCamera {
                 };
             });
     }
+
+    /// Renders a frame from the robot at `pose` by rasterising `raster`'s mesh (see
+    /// [`super::raster`]): the same rays, distances and range rule as [`DepthCamera::capture`].
+    pub fn render(&self, raster: &MeshRaster, pose: Pose2) -> DepthFrame {
+        let mut frame = DepthFrame::default();
+        self.render_into(raster, pose, &mut frame);
+        frame
+    }
+
+    /// [`DepthCamera::render`] into `frame`, reusing its buffers. The frame does not depend on the
+    /// thread count.
+    pub fn render_into(&self, raster: &MeshRaster, pose: Pose2, frame: &mut DepthFrame) {
+        let (sin, cos) = (pose.yaw.sin() as f32, pose.yaw.cos() as f32);
+        let origin = Point3::new(pose.x as f32, pose.y as f32, self.mount_height);
+        frame.origin = origin;
+        frame.axis = Vector3::new(cos, sin, 0.0);
+        frame.width = self.width;
+        frame.height = self.height;
+        frame.max_range = self.max_range;
+        let n = self.rays();
+        frame.dirs.resize(n, Vector3::zeros());
+        frame.range.resize(n, 0.0);
+        frame
+            .dirs
+            .par_iter_mut()
+            .zip(self.cam_dirs.par_iter())
+            .with_min_len(4096)
+            .for_each(|(dir, c)| *dir = world_dir(cos, sin, c));
+        let cam = RasterCamera {
+            width: self.width,
+            height: self.height,
+            tan_h: self.tan_h,
+            tan_v: self.tan_v,
+            max_range: self.max_range,
+        };
+        raster.render_ranges(
+            &cam,
+            parry3d::math::Vector::new(origin.x, origin.y, origin.z),
+            (cos, sin),
+            &frame.dirs,
+            &mut frame.range,
+        );
+        let (min_range, max_range) = (self.min_range, self.max_range);
+        for r in &mut frame.range {
+            *r = if *r >= max_range {
+                f32::INFINITY
+            } else if *r < min_range {
+                f32::NAN
+            } else {
+                *r
+            };
+        }
+    }
+}
+
+/// A camera-frame direction in the world, for a robot heading `(cos, sin)`: yaw only, a rotation
+/// about z. The one formula both the caster and the rasteriser use, so their rays are the same.
+#[inline(always)]
+fn world_dir(cos: f32, sin: f32, c: &Vector3<f32>) -> Vector3<f32> {
+    Vector3::new(cos * c.x - sin * c.y, sin * c.x + cos * c.y, c.z)
 }
 
 impl DepthFrame {

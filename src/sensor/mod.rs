@@ -1,7 +1,11 @@
-//! The depth camera: a pinhole model whose rays are cast into the scene mesh's BVH.
+//! The depth camera: a pinhole model whose frames are rendered from the scene mesh by rasterisation
+//! (the default) or by casting one ray per pixel into the mesh's BVH (the reference, and the
+//! collision queries).
 
 pub mod camera;
+pub mod raster;
 pub mod raycast;
 
 pub use camera::{DepthCamera, DepthFrame};
+pub use raster::MeshRaster;
 pub use raycast::MeshBvh;

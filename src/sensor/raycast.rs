@@ -24,28 +24,7 @@ impl MeshBvh {
     /// Builds the BVH. A mesh with no triangles, an out-of-range index or a non-finite vertex is an
     /// error (parry would panic or build a useless tree on some of these), as is anything parry rejects.
     pub fn new(mesh: &TriMesh) -> Result<MeshBvh> {
-        if let Some((i, v)) = mesh
-            .vertices
-            .iter()
-            .enumerate()
-            .find(|(_, v)| !v.iter().all(|c| c.is_finite()))
-        {
-            return Err(Error::Runtime(format!(
-                "mesh vertex {i} is not finite: ({}, {}, {})",
-                v.x, v.y, v.z
-            )));
-        }
-        let n = mesh.vertices.len();
-        if let Some((t, tri)) = mesh
-            .triangles
-            .iter()
-            .enumerate()
-            .find(|(_, tri)| tri.iter().any(|&i| i as usize >= n))
-        {
-            return Err(Error::Runtime(format!(
-                "mesh triangle {t} refers to a vertex out of range: {tri:?} with {n} vertices"
-            )));
-        }
+        validate(mesh)?;
         let vertices = mesh
             .vertices
             .iter()
@@ -156,6 +135,34 @@ impl MeshBvh {
         });
         hit
     }
+}
+
+/// Rejects a mesh with a non-finite vertex or an out-of-range index (an empty mesh is left to the
+/// caller: parry rejects it, the rasteriser renders nothing).
+pub(super) fn validate(mesh: &TriMesh) -> Result<()> {
+    if let Some((i, v)) = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.iter().all(|c| c.is_finite()))
+    {
+        return Err(Error::Runtime(format!(
+            "mesh vertex {i} is not finite: ({}, {}, {})",
+            v.x, v.y, v.z
+        )));
+    }
+    let n = mesh.vertices.len();
+    if let Some((t, tri)) = mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .find(|(_, tri)| tri.iter().any(|&i| i as usize >= n))
+    {
+        return Err(Error::Runtime(format!(
+            "mesh triangle {t} refers to a vertex out of range: {tri:?} with {n} vertices"
+        )));
+    }
+    Ok(())
 }
 
 /// Two-sided Möller–Trumbore: distance to triangle `[v0, e1, e2]` if hit in `[0, max)`.

@@ -7,14 +7,13 @@ use super::metrics::{
 use super::motion::{MotionExecutor, MotionStatus};
 use super::observable::{CacheOutcome, ObservableCache, ObservableSet};
 use super::robot::Robot;
-use crate::config::Config;
-use crate::config::SpawnMode;
+use crate::config::{Config, DepthRenderer, SpawnMode};
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
 use crate::plan::{Action, PlanContext, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
-use crate::sensor::{DepthCamera, DepthFrame, MeshBvh};
+use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
 use nalgebra::Point2;
 use rand::{Rng, SeedableRng};
@@ -67,11 +66,13 @@ pub struct RunOutput {
     pub ground_truth: GroundTruth,
 }
 
-/// The world a run happens in: the scene's ground truth, its ray-casting structure and what the
-/// camera could observe in it, built once.
+/// The world a run happens in: the scene's ground truth, its ray-casting structure (collisions, and
+/// depth with `camera.renderer = "raycast"`), its rasteriser (depth by default) and what the camera
+/// could observe in it, built once.
 pub struct World {
     pub ground_truth: GroundTruth,
     pub bvh: MeshBvh,
+    pub raster: MeshRaster,
     pub observable: Arc<ObservableSet>,
     /// Where the observable set came from (cache hit, computed, repaired).
     pub observable_source: CacheOutcome,
@@ -113,9 +114,11 @@ impl World {
                 ground_truth.with_spawn(pose)?
             }
         };
+        let raster = MeshRaster::new(&scene.mesh)?;
         Ok(World {
             ground_truth,
             bvh,
+            raster,
             observable: Arc::new(observable),
             observable_source,
         })
@@ -166,6 +169,7 @@ pub fn run_planner(
     let World {
         ground_truth: gt,
         bvh,
+        raster,
         observable,
         ..
     } = world;
@@ -226,7 +230,10 @@ pub fn run_planner(
         let t0 = Instant::now();
         let fired = step.is_multiple_of(camera_period);
         if fired {
-            camera.capture_into(&bvh, robot.pose, &mut frame);
+            match cfg.camera.renderer {
+                DepthRenderer::Raster => camera.render_into(&raster, robot.pose, &mut frame),
+                DepthRenderer::Raycast => camera.capture_into(&bvh, robot.pose, &mut frame),
+            }
         }
         let t1 = Instant::now();
         // Map.
