@@ -161,6 +161,7 @@ pub fn run_one(run: &RunSpec, base: &Config, log_dir: Option<&Path>) -> BenchRow
         let mut recorder = crate::log::Recorder::new(
             crate::log::RunLog::create(&path, &identity, &cfg.log)?,
             &cfg,
+            &scene.mesh,
             None,
         );
         let out = sim::run(&scene, world, &cfg, run.planner, &mut recorder);

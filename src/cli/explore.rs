@@ -123,6 +123,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             Some(Recorder::new(
                 RunLog::create(path, &identity, &cfg.log)?,
                 &cfg,
+                &scene.mesh,
                 Some(stop),
             ))
         }

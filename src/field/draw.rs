@@ -5,12 +5,9 @@ use super::TensorField;
 use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 
-/// Colours of the picture.
-pub const WEDGE: Rgb<u8> = Rgb([230, 40, 40]);
-pub const TRISECTOR: Rgb<u8> = Rgb([40, 90, 230]);
-pub const OTHER: Rgb<u8> = Rgb([200, 0, 200]);
-pub const SEPARATRIX: Rgb<u8> = Rgb([20, 170, 60]);
-pub const PAIRING: Rgb<u8> = Rgb([240, 160, 0]);
+use crate::render::palette::{
+    OTHER_DEGENERATE as OTHER, SEPARATRIX, TOPOLOGY_EDGE as PAIRING, TRISECTOR, WEDGE,
+};
 
 /// Draws over `img`, which must be `nx·scale × ny·scale` pixels of the field's grid with +y up
 /// (row 0 at the grid's top): a glyph every `glyph_every` cells (dark = coherent, light = nearly

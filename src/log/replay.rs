@@ -198,7 +198,7 @@ pub fn verify(log: &LogContents) -> Result<Option<Divergence>> {
         next: 0,
         divergence: None,
     };
-    let mut rec = Recorder::new(comparer, &cfg, None);
+    let mut rec = Recorder::new(comparer, &cfg, &scene.mesh, None);
     sim::run(&scene, world, &cfg, planner, &mut rec)?;
     let c = rec.sink;
     if c.divergence.is_some() {
@@ -336,7 +336,7 @@ fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
 /// `log.field` was on.
 pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
-    use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
+    use crate::render::{Canvas, FREE, FRONTIER, OCCUPIED, PATH, ROBOT as END, START, UNKNOWN};
     let grids = decoded(log, &topics::MAP_GRID, decode_grid);
     let poses = decoded(log, &topics::POSE, decode_pose);
     let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_spheres(v)));

@@ -11,17 +11,11 @@ use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 use std::path::Path;
 
-pub const UNKNOWN: Rgb<u8> = Rgb([150, 150, 150]);
-pub const FREE: Rgb<u8> = Rgb([250, 250, 250]);
-pub const OCCUPIED: Rgb<u8> = Rgb([20, 20, 20]);
-pub const TRUTH_WALL: Rgb<u8> = Rgb([200, 120, 120]);
-pub const REGION: Rgb<u8> = Rgb([235, 242, 250]);
-pub const PATH: Rgb<u8> = Rgb([30, 90, 220]);
-pub const START: Rgb<u8> = Rgb([20, 170, 60]);
-pub const END: Rgb<u8> = Rgb([220, 40, 40]);
-pub const FRONTIER: Rgb<u8> = Rgb([250, 160, 20]);
-/// Free, but too close to a known obstacle for the robot's centre.
-pub const INFLATED: Rgb<u8> = Rgb([214, 226, 240]);
+pub mod palette;
+
+pub use palette::{
+    FREE, FRONTIER, INFLATED, OCCUPIED, PATH, REGION, ROBOT, START, TRUTH_WALL, UNKNOWN,
+};
 
 /// Largest picture side, pixels; the cell scale is chosen to stay under it.
 const MAX_SIDE_PX: usize = 1600;
@@ -165,7 +159,7 @@ pub fn draw_run(map: &Map, gt: &GroundTruth, trajectory: &[Pose2]) -> Canvas {
     let r = (0.25 / map.grid().res * canvas.scale as f64).max(3.0);
     if let (Some(first), Some(last)) = (points.first(), points.last()) {
         canvas.disc(*first, r, START);
-        canvas.disc(*last, r, END);
+        canvas.disc(*last, r, palette::ROBOT);
     }
     canvas
 }
