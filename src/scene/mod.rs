@@ -4,6 +4,7 @@
 
 pub mod extrude;
 pub mod generate;
+pub mod gltf_mesh;
 pub mod ground_truth;
 pub mod houseexpo;
 pub mod mesh;
@@ -40,7 +41,8 @@ pub struct Scene {
 /// in a PLY header.
 const SPAWN_MARKER: &str = "tensorscout spawn";
 
-/// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.yaml`/`.yml`, `.json`).
+/// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.gltf`/`.glb`, `.yaml`/`.yml`,
+/// `.json`).
 pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
     let ext = path
         .extension()
@@ -60,6 +62,12 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
             }
             (mesh, spawn, bytes, ext.clone())
         }
+        "gltf" | "glb" => {
+            let bytes = read_nonempty(path)?;
+            // glTF is y-up by its specification: always converted, whatever `scene.y_up` says.
+            let (mesh, hash_bytes) = gltf_mesh::parse(path, &bytes)?;
+            (mesh, None, hash_bytes, ext.clone())
+        }
         "yaml" | "yml" => {
             let imported = rosmap::import(path, cfg)?;
             (imported.mesh, None, imported.hash_bytes, "ros-map".into())
@@ -71,7 +79,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         }
         _ => {
             return Err(Error::usage(format!(
-                "{}: unknown scene format `.{ext}` (expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan)",
+                "{}: unknown scene format `.{ext}` (expected .obj, .ply, .gltf/.glb, .yaml/.yml ROS map or .json HouseExpo plan)",
                 path.display()
             )))
         }
