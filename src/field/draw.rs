@@ -5,7 +5,7 @@ use super::TensorField;
 use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 
-use crate::render::palette::{
+pub use crate::render::palette::{
     OTHER_DEGENERATE as OTHER, SEPARATRIX, TOPOLOGY_EDGE as PAIRING, TRISECTOR, WEDGE,
 };
 

@@ -235,7 +235,13 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
 /// `image` crate. Colour pixels are averaged to grey, as map_server does; alpha is ignored
 /// (simplification: map_server's `scale` mode treats transparent pixels as unknown).
 pub fn read_image(path: &Path, bytes: &[u8]) -> Result<Pgm> {
-    if bytes.starts_with(b"P5") || bytes.starts_with(b"P2") {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if matches!(ext.as_str(), "pgm" | "pnm") || bytes.starts_with(b"P5") || bytes.starts_with(b"P2")
+    {
         return parse_pgm(path, bytes);
     }
     use image::DynamicImage as D;
@@ -633,5 +639,78 @@ mod tests {
             y("g.yaml", base),
             format!("{}: map has no known (free or occupied) cells", p("g.yaml"))
         );
+        // A header smaller than its data (P5 and P2).
+        std::fs::write(d.join("m.pgm"), b"P5 2 2 255\n\x00\x00\x00\x00\x00\x00").unwrap();
+        assert_eq!(
+            y("h.yaml", base),
+            format!(
+                "{}: not a valid PGM image: 2 bytes of pixel data beyond the header's 2 × 2 (is the header's size wrong?)",
+                p("m.pgm")
+            )
+        );
+        std::fs::write(d.join("m.pgm"), b"P2 2 1 255 0 0 0").unwrap();
+        assert!(y("i.yaml", base).contains("1 pixel values beyond the header's 2 × 1"));
+        // An origin far beyond any float32 resolution is named as such.
+        std::fs::write(d.join("m.pgm"), b"P2 2 1 255 0 254").unwrap();
+        let far = y("j.yaml", &base.replace("[0, 0, 0]", "[1e30, 0, 0]"));
+        assert!(
+            far.contains("key `origin`") && far.contains("more than 100 km from 0"),
+            "{far}"
+        );
+        // Not a mapping, and an origin that is not a list.
+        assert!(y("k.yaml", "- a\n- b\n").contains("not a mapping"));
+        assert!(y("l.yaml", &base.replace("[0, 0, 0]", "7"))
+            .contains("key `origin`: expected a list of three numbers"));
+    }
+
+    #[test]
+    fn block_and_flow_yaml_with_comments_and_quotes_parse_alike() {
+        let path = Path::new("m.yaml");
+        let flow = parse_yaml(
+            path,
+            "image: m.pgm\nresolution: 0.05\norigin: [-1.5, 2, 0.0]\nnegate: 0\n\
+             occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: scale\n",
+        )
+        .unwrap();
+        let block = parse_yaml(
+            path,
+            "# map_saver (ROS 2)\nimage: 'm.pgm'\nmode: \"scale\"  # quoted\nresolution: \"0.05\"\n\
+             origin:\n- -1.5\n- 2\n- 0.0\nnegate: false\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+        )
+        .unwrap();
+        assert_eq!(flow, block);
+        assert_eq!(block.origin, [-1.5, 2.0, 0.0]);
+        assert_eq!(block.mode, "scale");
+    }
+
+    #[test]
+    fn exported_map_reads_back_cell_for_cell() {
+        let grid = crate::GridSpec {
+            origin_x: -1.25,
+            origin_y: 3.5,
+            res: 0.1,
+            nx: 4,
+            ny: 3,
+            nz: 1,
+        };
+        use CellState::*;
+        let states = vec![
+            Free, Free, Occupied, Unknown, //
+            Unknown, Free, Free, Occupied, //
+            Occupied, Occupied, Free, Free,
+        ];
+        let (yaml_text, pgm_bytes) = ros_map_files(&grid, &states);
+        let yaml = parse_yaml(Path::new("map.yaml"), &yaml_text).unwrap();
+        assert_eq!(yaml.origin, [-1.25, 3.5, 0.0]);
+        assert_eq!(yaml.resolution, 0.1);
+        let pgm = parse_pgm(Path::new("map.pgm"), &pgm_bytes).unwrap();
+        assert_eq!((pgm.width, pgm.height), (4, 3));
+        for iy in 0..3 {
+            for ix in 0..4 {
+                // PGM row 0 is the top (largest y).
+                let v = pgm.pixels[(2 - iy) * 4 + ix];
+                assert_eq!(classify(&yaml, pgm.max_value, v), states[iy * 4 + ix]);
+            }
+        }
     }
 }
