@@ -43,13 +43,13 @@ pub const FOV: Rgb<u8> = Rgb([235, 110, 110]);
 pub const PLAN_PATH: Rgb<u8> = Rgb([150, 40, 200]);
 /// The planner's tour (TSP order of its goals).
 pub const TOUR: Rgb<u8> = Rgb([245, 130, 48]);
-/// A distinct colour per frontier group (cycled).
+/// A distinct colour per frontier group (cycled); none is another palette entry's colour.
 pub const GROUP_COLOURS: [Rgb<u8>; 8] = [
     Rgb([230, 25, 75]),
     Rgb([60, 180, 75]),
     Rgb([0, 130, 200]),
-    Rgb([245, 130, 48]),
-    Rgb([145, 30, 180]),
+    Rgb([0, 0, 128]),
+    Rgb([170, 255, 195]),
     Rgb([70, 240, 240]),
     Rgb([240, 50, 230]),
     Rgb([128, 128, 0]),
@@ -111,6 +111,11 @@ pub const LEGEND: &[(&str, Rgb<u8>, Swatch)] = &[
     ("camera field of view", FOV, Swatch::Line),
     ("planned path", PLAN_PATH, Swatch::Line),
     ("tour", TOUR, Swatch::Line),
+    (
+        "frontier groups (a colour each)",
+        GROUP_COLOURS[0],
+        Swatch::Dot,
+    ),
     ("wedge", WEDGE, Swatch::Dot),
     ("trisector", TRISECTOR, Swatch::Dot),
     ("other degenerate point", OTHER_DEGENERATE, Swatch::Dot),
@@ -138,6 +143,9 @@ mod tests {
                 assert_ne!(a.1, b.1, "{} and {} share a colour", a.0, b.0);
                 assert_ne!(a.0, b.0);
             }
+        }
+        for g in &GROUP_COLOURS[1..] {
+            assert!(LEGEND.iter().all(|e| e.1 != *g), "{g:?}");
         }
         // The pairs the pictures used to confuse.
         assert_ne!(START, WEDGE);
