@@ -146,11 +146,11 @@ fn two_room_gltf(buffer_uri: Option<&str>) -> (serde_json::Value, Vec<u8>) {
 /// The GLB container: 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with 0s.
 fn glb(doc: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
     let mut json = serde_json::to_vec(doc).unwrap();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();

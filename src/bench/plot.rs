@@ -15,7 +15,6 @@ use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::render::FONT;
 /// The PNG's size, pixels.
 const SIZE: (u32, u32) = (900, 600);
 /// The SVG's size, user units (px): smaller than the PNG so that, scaled to a paper's column width
@@ -207,7 +206,7 @@ mod tests {
 
     #[test]
     fn embedded_font_parses() {
-        assert!(ab_glyph_parses(FONT));
+        assert!(ab_glyph_parses(crate::render::FONT));
     }
 
     fn ab_glyph_parses(bytes: &'static [u8]) -> bool {

@@ -18,7 +18,7 @@ use tensorscout::{render, scene, Pose2};
 
 #[derive(Args)]
 pub struct ExploreArgs {
-    /// Scene to explore: OBJ or PLY mesh, ROS map `.yaml`, or HouseExpo `.json`.
+    /// Scene to explore: OBJ, PLY or glTF (`.gltf`/`.glb`) mesh, ROS map `.yaml`, or HouseExpo `.json`.
     #[arg(long, value_name = "PATH")]
     scene: PathBuf,
     /// Exploration planner.

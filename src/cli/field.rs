@@ -17,7 +17,7 @@ pub enum Known {
 
 #[derive(Args)]
 pub struct FieldArgs {
-    /// Scene file: OBJ, PLY, ROS map `.yaml` or HouseExpo `.json`.
+    /// Scene file: OBJ, PLY, glTF (`.gltf`/`.glb`), ROS map `.yaml` or HouseExpo `.json`.
     #[arg(long, value_name = "PATH")]
     scene: PathBuf,
     /// What is known of the scene.

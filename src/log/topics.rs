@@ -198,4 +198,25 @@ mod tests {
         names.dedup();
         assert_eq!(names.len(), TOPICS.len());
     }
+
+    #[test]
+    fn foxglove_layout_names_only_logged_topics() {
+        let layout: serde_json::Value = serde_json::from_str(include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/foxglove-layout.json"
+        )))
+        .unwrap();
+        let panels = layout["configById"].as_object().unwrap();
+        let three_d = &panels["3D!tensorscout"]["topics"];
+        for t in three_d.as_object().unwrap().keys() {
+            assert!(by_name(t).is_some(), "layout topic {t} is not logged");
+        }
+        for t in ["/scene", "/tf", "/field/tensor", "/plan/tour"] {
+            assert!(by_name(t).is_some());
+        }
+        let image = &panels["Image!tensorscoutdepth"]["imageMode"];
+        assert_eq!(image["imageTopic"], DEPTH.name);
+        assert_eq!(image["calibrationTopic"], CAMERA_INFO.name);
+        assert_eq!(panels["3D!tensorscout"]["followTf"], "base_link");
+    }
 }
