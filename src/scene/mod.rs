@@ -603,7 +603,7 @@ f 2 3 7 6
         let unknown = err(d, "x.stl", "solid\n");
         assert_eq!(
             unknown,
-            format!("{}: unknown scene format `.stl` (expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan)", pd("x.stl"))
+            format!("{}: unknown scene format `.stl` (expected .obj, .ply, .gltf/.glb, .yaml/.yml ROS map or .json HouseExpo plan)", pd("x.stl"))
         );
         assert_eq!(
             err(
