@@ -46,9 +46,10 @@ const PNG_FONTS: Fonts = Fonts {
     legend: 20,
 };
 /// Plotters writes an SVG `font-size` of the requested size ÷ 1.24, so 20 → 16.1 units → 8.5 pt at
-/// 252 pt column width.
+/// 252 pt column width. No title: a paper's figure has a caption instead (and the scene's name
+/// would not fit at this size).
 const SVG_FONTS: Fonts = Fonts {
-    title: 24,
+    title: 0,
     axis: 22,
     ticks: 20,
     legend: 20,
@@ -71,8 +72,11 @@ fn draw_plot<DB: DrawingBackend>(
     let pts = s.values().flatten().flatten();
     let x_max = pts.clone().map(|p| p.0).fold(0.0, f64::max).max(1e-6) * 1.02;
     let y_max = pts.map(|p| p.1).fold(0.0, f64::max).max(1e-6) * 1.05;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", f.title))
+    let mut builder = ChartBuilder::on(root);
+    if f.title > 0 {
+        builder.caption(title, ("sans-serif", f.title));
+    }
+    let mut chart = builder
         .margin(12)
         .x_label_area_size(f.axis * 2 + f.ticks)
         .y_label_area_size(f.axis * 2 + f.ticks * 2)
@@ -116,7 +120,8 @@ fn draw_plot<DB: DrawingBackend>(
 }
 
 /// One plot: title, axis labels, series. Writes `path` (PNG) and the same plot as SVG beside it
-/// (`path` with the extension `svg`; text as SVG text in the reader's sans-serif font).
+/// (`path` with the extension `svg`, without the title; text as SVG text in the reader's
+/// sans-serif font).
 pub fn line_plot(path: &Path, title: &str, x_label: &str, y_label: &str, s: &Series) -> Result<()> {
     crate::render::register_font();
     let (w, h) = SIZE;
