@@ -158,11 +158,7 @@ fn log_replays_verifies_and_is_never_overwritten() {
 /// Decodes every message with the PyPI `mcap` reader and compares counts per topic (skipped, with
 /// a note, when Python or the package is missing).
 fn python_check(log: &Path, counts: &serde_json::Value) {
-    let has_mcap = Command::new("python3")
-        .args(["-c", "import mcap"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !has_mcap {
+    if !python_has(&["mcap"]) {
         eprintln!("note: python3 with the `mcap` package not found; independent check skipped");
         return;
     }
@@ -174,6 +170,116 @@ fn python_check(log: &Path, counts: &serde_json::Value) {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+}
+
+/// Whether python3 can import every module in `modules`; without them a check is skipped with a
+/// note, unless `TENSORSCOUT_REQUIRE_PYTHON` is set (as `.ci/run` does), when that is a failure.
+fn python_has(modules: &[&str]) -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", &format!("import {}", modules.join(", "))])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok && std::env::var_os("TENSORSCOUT_REQUIRE_PYTHON").is_some() {
+        panic!(
+            "python3 with {modules:?} is required (TENSORSCOUT_REQUIRE_PYTHON is set): pip install {}",
+            modules.join(" ")
+        );
+    }
+    ok
+}
+
+/// The vendored official schema file of `foxglove.NAME`.
+fn official_schema(name: &str) -> Vec<u8> {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/foxglove-schemas")
+        .join(format!("{}.json", name.trim_start_matches("foxglove.")));
+    std::fs::read(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()))
+}
+
+/// A default-rate log of `planner` holds `/tf`, the field topics, the scene mesh and the robot; each
+/// `foxglove.*` channel's schema is the official file byte for byte; and every message validates
+/// against it (Python `jsonschema`, stopping at the first error).
+fn check_official_schemas(planner: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_copy(dir.path(), "apartment_small.obj");
+    let log = dir.path().join("run.mcap");
+    let run = explore_logged(&scene, &log, &["--planner", planner]);
+    assert!(run.status.success(), "{}", stderr(&run));
+
+    let bytes = std::fs::read(&log).unwrap();
+    let mut topics = std::collections::BTreeMap::new();
+    let mut scene_msg = None;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let schema = m
+            .channel
+            .schema
+            .as_ref()
+            .expect("every channel has a schema");
+        if schema.name.starts_with("foxglove.") {
+            assert_eq!(schema.encoding, "jsonschema");
+            assert!(
+                schema.data.as_ref() == official_schema(&schema.name).as_slice(),
+                "{}: the schema {} in the log is not the official file",
+                m.channel.topic,
+                schema.name
+            );
+        }
+        if m.channel.topic == "/scene" {
+            scene_msg = Some(serde_json::from_slice::<serde_json::Value>(&m.data).unwrap());
+        }
+        *topics.entry(m.channel.topic.clone()).or_insert(0u64) += 1;
+    }
+    for t in [
+        "/tf",
+        "/field/tensor",
+        "/field/degenerate",
+        "/field/topology",
+    ] {
+        assert!(
+            topics.get(t).copied().unwrap_or(0) > 0,
+            "{planner}: no {t} in {topics:?}"
+        );
+    }
+    assert_eq!(topics["/scene"], 1);
+    assert_eq!(topics["/tf"], topics["/robot/pose"]);
+    assert_eq!(topics["/camera/calibration"], topics["/camera/depth"]);
+    let entity = &scene_msg.unwrap()["entities"][0];
+    assert_eq!(entity["id"], "scene_mesh");
+    let tri = &entity["triangles"][0];
+    assert!(tri["indices"].as_array().unwrap().len() >= 3);
+    assert_eq!(tri["indices"].as_array().unwrap().len() % 3, 0);
+
+    if !python_has(&["mcap", "jsonschema"]) {
+        eprintln!(
+            "note: SKIPPED the jsonschema validation of the {planner} log: python3 with the \
+             `mcap` and `jsonschema` packages not found (pip install mcap jsonschema)"
+        );
+        return;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let o = Command::new("python3")
+        .arg(root.join("tests/python/check_schemas.py"))
+        .arg(&log)
+        .arg(root.join("assets/foxglove-schemas"))
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{planner}: {}{}",
+        stdout(&o),
+        stderr(&o)
+    );
+}
+
+#[test]
+fn thp_log_has_official_schemas_and_every_message_validates() {
+    check_official_schemas("thp");
+}
+
+#[test]
+fn tensor_log_has_official_schemas_and_every_message_validates() {
+    check_official_schemas("tensor");
 }
 
 #[test]

@@ -23,7 +23,7 @@ use std::sync::Mutex;
 pub use store::{BenchRow, RunKey, RunStatus};
 
 /// Scene file extensions `--scenes DIR` picks up.
-pub const SCENE_EXTENSIONS: [&str; 5] = ["obj", "ply", "yaml", "yml", "json"];
+pub const SCENE_EXTENSIONS: [&str; 7] = ["obj", "ply", "gltf", "glb", "yaml", "yml", "json"];
 
 /// One deterministic slice `K/N` (1-based `K`) of a batch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -181,6 +181,7 @@ pub fn run_one(
         let mut recorder = crate::log::Recorder::new(
             crate::log::RunLog::create(&path, &identity, &cfg.log)?,
             &cfg,
+            &scene.mesh,
             None,
         );
         let out = sim::run(&scene, world, &cfg, run.planner, &mut recorder);

@@ -2,7 +2,9 @@
 //! every planner on one plot (one line per seed, one colour and legend entry per planner).
 //!
 //! Drawn by plotters into an RGB buffer (saved as PNG with `image`), text with the embedded DejaVu
-//! Sans (assets/fonts), so the output does not depend on the machine's fonts.
+//! Sans (assets/fonts), so the output does not depend on the machine's fonts; and the same plot as
+//! SVG beside each PNG (plotters' SVG backend), sized so that its text stays legible at a paper's
+//! column width.
 //! Not drawn yet: TSP time per planning step (THP Fig. 8): runs do not record TSP timings so far.
 
 use super::store::{BenchRow, RunStatus};
@@ -12,10 +14,12 @@ use crate::{Error, Result};
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Once;
 
-const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+/// The PNG's size, pixels.
 const SIZE: (u32, u32) = (900, 600);
+/// The SVG's size, user units (px): smaller than the PNG so that, scaled to a paper's column width
+/// (about 252 pt, 3.5 in), its smallest text is still above 8 pt.
+const SVG_SIZE: (u32, u32) = (480, 340);
 /// Planner colours (Okabe–Ito, readable by colour-blind readers), by planner name order.
 const COLOURS: [RGBColor; 6] = [
     RGBColor(0, 114, 178),
@@ -26,76 +30,119 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(86, 180, 233),
 ];
 
-fn register_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // The font is compiled in and known to parse; the unit test below checks it.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
+/// Text sizes of one plot, pixels: title, axis descriptions, tick labels, legend.
+#[derive(Clone, Copy)]
+struct Fonts {
+    title: u32,
+    axis: u32,
+    ticks: u32,
+    legend: u32,
 }
+
+const PNG_FONTS: Fonts = Fonts {
+    title: 28,
+    axis: 24,
+    ticks: 20,
+    legend: 20,
+};
+/// Plotters writes an SVG `font-size` of the requested size ÷ 1.24, so 20 → 16.1 units → 8.5 pt at
+/// 252 pt column width. No title: a paper's figure has a caption instead (and the scene's name
+/// would not fit at this size).
+const SVG_FONTS: Fonts = Fonts {
+    title: 0,
+    axis: 22,
+    ticks: 20,
+    legend: 20,
+};
 
 /// The lines of one plot: per planner (name order), per seed, the (x, y) points.
 type Series = BTreeMap<String, Vec<Vec<(f64, f64)>>>;
 
-/// One plot: title, axis labels, series. Writes `path`.
+/// Draws one plot on any plotters backend (the PNG's bitmap, the SVG).
+fn draw_plot<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    s: &Series,
+    f: Fonts,
+) -> std::result::Result<(), String> {
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let pts = s.values().flatten().flatten();
+    let x_max = pts.clone().map(|p| p.0).fold(0.0, f64::max).max(1e-6) * 1.02;
+    let y_max = pts.map(|p| p.1).fold(0.0, f64::max).max(1e-6) * 1.05;
+    let mut builder = ChartBuilder::on(root);
+    if f.title > 0 {
+        builder.caption(title, ("sans-serif", f.title));
+    }
+    let mut chart = builder
+        .margin(12)
+        .x_label_area_size(f.axis * 2 + f.ticks)
+        .y_label_area_size(f.axis * 2 + f.ticks * 2)
+        .build_cartesian_2d(0.0..x_max, 0.0..y_max)
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .x_labels(6)
+        .y_labels(6)
+        .axis_desc_style(("sans-serif", f.axis))
+        .label_style(("sans-serif", f.ticks))
+        .draw()
+        .map_err(|x| e(&x))?;
+    for (i, (planner, lines)) in s.iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        for (j, line) in lines.iter().enumerate() {
+            let series = chart
+                .draw_series(LineSeries::new(
+                    line.iter().copied(),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|x| e(&x))?;
+            if j == 0 {
+                series.label(planner.as_str()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
+                });
+            }
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .label_font(("sans-serif", f.legend))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|x| e(&x))?;
+    root.present().map_err(|x| e(&x))
+}
+
+/// One plot: title, axis labels, series. Writes `path` (PNG) and the same plot as SVG beside it
+/// (`path` with the extension `svg`, without the title; text as SVG text in the reader's
+/// sans-serif font).
 pub fn line_plot(path: &Path, title: &str, x_label: &str, y_label: &str, s: &Series) -> Result<()> {
-    register_font();
+    crate::render::register_font();
     let (w, h) = SIZE;
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let draw_err = |e: &dyn std::fmt::Display| Error::Runtime(format!("{}: {e}", path.display()));
     {
         let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| draw_err(&e))?;
-        let pts = s.values().flatten().flatten();
-        let x_max = pts.clone().map(|p| p.0).fold(0.0, f64::max).max(1e-6) * 1.02;
-        let y_max = pts.map(|p| p.1).fold(0.0, f64::max).max(1e-6) * 1.05;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 26))
-            .margin(15)
-            .x_label_area_size(55)
-            .y_label_area_size(75)
-            .build_cartesian_2d(0.0..x_max, 0.0..y_max)
-            .map_err(|e| draw_err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .axis_desc_style(("sans-serif", 20))
-            .label_style(("sans-serif", 16))
-            .draw()
-            .map_err(|e| draw_err(&e))?;
-        for (i, (planner, lines)) in s.iter().enumerate() {
-            let colour = COLOURS[i % COLOURS.len()];
-            for (j, line) in lines.iter().enumerate() {
-                let series = chart
-                    .draw_series(LineSeries::new(
-                        line.iter().copied(),
-                        colour.stroke_width(2),
-                    ))
-                    .map_err(|e| draw_err(&e))?;
-                if j == 0 {
-                    series.label(planner.as_str()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
-                    });
-                }
-            }
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .label_font(("sans-serif", 18))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| draw_err(&e))?;
-        root.present().map_err(|e| draw_err(&e))?;
+        draw_plot(&root, title, x_label, y_label, s, PNG_FONTS).map_err(|e| draw_err(&e))?;
     }
     let img = image::RgbImage::from_raw(w, h, buf)
         .ok_or_else(|| Error::Runtime(format!("{}: bad image buffer", path.display())))?;
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| draw_err(&e))?;
-    super::store::write_atomic(path, &png)
+    super::store::write_atomic(path, &png)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, SVG_SIZE).into_drawing_area();
+        draw_plot(&root, title, x_label, y_label, s, SVG_FONTS).map_err(|e| draw_err(&e))?;
+    }
+    super::store::write_atomic(&path.with_extension("svg"), svg.as_bytes())
 }
 
 /// A file-name-safe version of a scene name.
@@ -164,7 +211,7 @@ mod tests {
 
     #[test]
     fn embedded_font_parses() {
-        assert!(ab_glyph_parses(FONT));
+        assert!(ab_glyph_parses(crate::render::FONT));
     }
 
     fn ab_glyph_parses(bytes: &'static [u8]) -> bool {
@@ -182,5 +229,18 @@ mod tests {
         assert_eq!(img.dimensions(), SIZE);
         // The greedy line's colour appears somewhere.
         assert!(img.pixels().any(|px| px.0 == [0, 114, 178]));
+        // The SVG beside it: the same labels and line colour, and no text below 8 pt once the
+        // plot is scaled to a 252 pt (3.5 in) paper column.
+        let svg = std::fs::read_to_string(dir.path().join("a.svg")).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("greedy"), "{svg}");
+        assert!(svg.contains("#0072B2"), "line colour");
+        let sizes: Vec<f64> = svg
+            .split("font-size=\"")
+            .skip(1)
+            .map(|r| r.split('"').next().unwrap().parse().unwrap())
+            .collect();
+        assert!(!sizes.is_empty());
+        let pt = |units: f64| units * 252.0 / f64::from(SVG_SIZE.0);
+        assert!(sizes.iter().all(|&u| pt(u) >= 8.0), "{sizes:?}");
     }
 }

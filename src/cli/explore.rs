@@ -17,7 +17,7 @@ use tensorscout::{render, scene, Pose2};
 
 #[derive(Args)]
 pub struct ExploreArgs {
-    /// Scene to explore: OBJ or PLY mesh, ROS map `.yaml`, or HouseExpo `.json`.
+    /// Scene to explore: OBJ, PLY or glTF (`.gltf`/`.glb`) mesh, ROS map `.yaml`, or HouseExpo `.json`.
     #[arg(long, value_name = "PATH")]
     scene: PathBuf,
     /// Exploration planner.
@@ -38,6 +38,13 @@ pub struct ExploreArgs {
     /// Log the run to this MCAP file (opens in Foxglove; see `tensorscout replay`).
     #[arg(long, value_name = "PATH.mcap")]
     log: Option<PathBuf>,
+    /// Write the final 2D map into this existing folder as a ROS map_server pair, `map.yaml` and a
+    /// trinary `map.pgm` (free 254, obstacle 0, unknown 205) at the map's resolution and origin.
+    #[arg(long, value_name = "DIR")]
+    map_out: Option<PathBuf>,
+    /// Write the robot's trajectory to this file in TUM format (`t x y z qx qy qz qw` a line).
+    #[arg(long, value_name = "FILE")]
+    trajectory: Option<PathBuf>,
     /// Print exactly one JSON object with every metric on stdout.
     #[arg(long)]
     json: bool,
@@ -99,6 +106,10 @@ impl Observer for Progress {
     }
 }
 
+fn write_file(path: &std::path::Path, bytes: &[u8]) -> tensorscout::Result<()> {
+    std::fs::write(path, bytes).map_err(|e| tensorscout::Error::io(path, e))
+}
+
 pub fn run(args: ExploreArgs) -> Result<()> {
     let mut cfg = args.config.load()?;
     if let Some(seed) = args.seed {
@@ -110,10 +121,41 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     if let Some(log) = &args.log {
         check_output(log, args.force, None)?;
     }
-    let outputs: Vec<(&str, &std::path::Path)> = [("--png", &args.png), ("--log", &args.log)]
-        .into_iter()
-        .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
-        .collect();
+    if let Some(dir) = &args.map_out {
+        if !dir.is_dir() {
+            return Err(tensorscout::Error::io(
+                dir,
+                std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "--map-out folder does not exist",
+                ),
+            )
+            .into());
+        }
+        check_output(&dir.join(scene::rosmap::MAP_YAML), args.force, Some("yaml"))?;
+        check_output(&dir.join(scene::rosmap::MAP_PGM), args.force, Some("pgm"))?;
+    }
+    if let Some(file) = &args.trajectory {
+        check_output(file, args.force, None)?;
+    }
+    let map_files = args.map_out.as_ref().map(|d| {
+        (
+            d.join(scene::rosmap::MAP_YAML),
+            d.join(scene::rosmap::MAP_PGM),
+        )
+    });
+    let mut outputs: Vec<(&str, &std::path::Path)> = [
+        ("--png", &args.png),
+        ("--log", &args.log),
+        ("--trajectory", &args.trajectory),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+    .collect();
+    if let Some((yaml, pgm)) = &map_files {
+        outputs.push(("--map-out", yaml));
+        outputs.push(("--map-out", pgm));
+    }
     check_distinct(&outputs, &[("--scene", &args.scene)])?;
     let spawn: Option<Pose2> = match args.spawn {
         Some(StartArg::Random) => {
@@ -146,6 +188,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             Some(Recorder::new(
                 RunLog::create(path, &identity, &cfg.log)?,
                 &cfg,
+                &scene.mesh,
                 None,
             ))
         }
@@ -239,6 +282,27 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     emit(&text)?;
     if let Some(png) = &args.png {
         render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
+    }
+    if let Some(dir) = &args.map_out {
+        use tensorscout::map::CellState as M;
+        use tensorscout::scene::rosmap::{self, CellState as R};
+        let states: Vec<R> = output
+            .map
+            .cell_states()
+            .iter()
+            .map(|s| match s {
+                M::Free => R::Free,
+                M::Obstacle => R::Occupied,
+                M::Unknown => R::Unknown,
+            })
+            .collect();
+        let (yaml, pgm) = rosmap::ros_map_files(output.map.grid(), &states);
+        write_file(&dir.join(rosmap::MAP_PGM), pgm.as_slice())?;
+        write_file(&dir.join(rosmap::MAP_YAML), yaml.as_bytes())?;
+    }
+    if let Some(file) = &args.trajectory {
+        let text = tensorscout::log::tum::tum_text(&output.trajectory, cfg.sim.dt_s);
+        write_file(file, text.as_bytes())?;
     }
     if let Some(e) = &r.error {
         return Err(tensorscout::Error::Runtime(e.clone()).into());

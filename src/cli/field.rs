@@ -17,7 +17,7 @@ pub enum Known {
 
 #[derive(Args)]
 pub struct FieldArgs {
-    /// Scene file: OBJ, PLY, ROS map `.yaml` or HouseExpo `.json`.
+    /// Scene file: OBJ, PLY, glTF (`.gltf`/`.glb`), ROS map `.yaml` or HouseExpo `.json`.
     #[arg(long, value_name = "PATH")]
     scene: PathBuf,
     /// What is known of the scene.
@@ -63,7 +63,30 @@ pub fn run(args: FieldArgs) -> Result<()> {
     if let Some(png) = &args.png {
         let mut canvas = render::draw_ground_truth(&gt, None);
         let scale = canvas.scale;
-        draw_field(&mut canvas.image, &tensor_field, scale, 4);
+        // Glyphs only over the explorable region (known free space of the ground truth).
+        draw_field(&mut canvas.image, &tensor_field, scale, 4, &|i| {
+            gt.in_region(i) && !gt.obstacle_column(i)
+        });
+        use tensorscout::field::{draw as d, DegenerateKind};
+        let graph = tensor_field.graph();
+        canvas.note(d::GLYPH);
+        for n in &graph.nodes {
+            canvas.note(match n.kind {
+                DegenerateKind::Wedge => d::WEDGE,
+                DegenerateKind::Trisector => d::TRISECTOR,
+                DegenerateKind::Other => d::OTHER,
+            });
+        }
+        if !graph.separatrices.is_empty() {
+            canvas.note(d::SEPARATRIX);
+        }
+        if graph
+            .edges
+            .iter()
+            .any(|e| e.kind == field::topology::EdgeKind::ShortestPath)
+        {
+            canvas.note(d::PAIRING);
+        }
         canvas.save(png)?;
     }
     if args.json {

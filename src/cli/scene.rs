@@ -73,7 +73,7 @@ tensorscout scene import map.yaml -o house.obj"
 /// A scene and the settings that shape its ground truth.
 #[derive(Args)]
 pub struct SceneArgs {
-    /// Scene file: OBJ, PLY, ROS map `.yaml` or HouseExpo `.json`.
+    /// Scene file: OBJ, PLY, glTF (`.gltf`/`.glb`), ROS map `.yaml` or HouseExpo `.json`.
     scene: PathBuf,
     /// Start pose `X,Y[,YAW]` (default: the scene's own, else automatic).
     #[arg(long, value_name = "X,Y[,YAW]", value_parser = parse_spawn, allow_hyphen_values = true)]

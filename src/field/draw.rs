@@ -5,17 +5,21 @@ use super::TensorField;
 use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 
-/// Colours of the picture.
-pub const WEDGE: Rgb<u8> = Rgb([230, 40, 40]);
-pub const TRISECTOR: Rgb<u8> = Rgb([40, 90, 230]);
-pub const OTHER: Rgb<u8> = Rgb([200, 0, 200]);
-pub const SEPARATRIX: Rgb<u8> = Rgb([20, 170, 60]);
-pub const PAIRING: Rgb<u8> = Rgb([240, 160, 0]);
+pub use crate::render::palette::{
+    fade, GLYPH, OTHER_DEGENERATE as OTHER, SEPARATRIX, TOPOLOGY_EDGE as PAIRING, TRISECTOR, WEDGE,
+};
 
 /// Draws over `img`, which must be `nx·scale × ny·scale` pixels of the field's grid with +y up
-/// (row 0 at the grid's top): a glyph every `glyph_every` cells (dark = coherent, light = nearly
-/// isotropic), separatrices in green, shortest-path pairings in orange, wedges red, trisectors blue.
-pub fn draw_field(img: &mut RgbImage, field: &TensorField, scale: u32, glyph_every: usize) {
+/// (row 0 at the grid's top): a glyph every `glyph_every` cells where `known(cell index)` holds
+/// (the palette's glyph colour where the field is coherent, fading to white where it is nearly
+/// isotropic), separatrices, shortest-path pairings, wedges and trisectors in their palette colours.
+pub fn draw_field(
+    img: &mut RgbImage,
+    field: &TensorField,
+    scale: u32,
+    glyph_every: usize,
+    known: &dyn Fn(usize) -> bool,
+) {
     let g = *field.grid();
     let scale = scale.max(1);
     if img.width() != g.nx as u32 * scale || img.height() != g.ny as u32 * scale {
@@ -32,13 +36,13 @@ pub fn draw_field(img: &mut RgbImage, field: &TensorField, scale: u32, glyph_eve
         for x in (step / 2..g.nx).step_by(step) {
             let c = crate::grid::Cell::new(x as i32, y as i32);
             let s = field.field().at_index(g.index(c));
-            if s.weight <= 0.0 {
+            if s.weight <= 0.0 || !known(g.index(c)) {
                 continue;
             }
-            let shade = (200.0 * (1.0 - s.coherence().clamp(0.0, 1.0))) as u8;
+            let shade = fade(GLYPH, 0.8 * (1.0 - s.coherence().clamp(0.0, 1.0)));
             let e = s.major() * half;
             let p = g.center(c);
-            line(img, to_px(p - e), to_px(p + e), Rgb([shade, shade, shade]));
+            line(img, to_px(p - e), to_px(p + e), shade);
         }
     }
     let graph = field.graph();

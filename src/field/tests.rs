@@ -223,7 +223,7 @@ fn office_fast_field_matches_reference_and_points_are_few_and_clear() {
     let json = serde_json::to_string(&report).unwrap();
     assert!(json.contains("\"type\":\"trisector\"") || json.contains("\"type\":\"wedge\""));
     let mut img = image::RgbImage::new(l.grid.nx as u32 * 2, l.grid.ny as u32 * 2);
-    draw_field(&mut img, &f, 2, 4);
+    draw_field(&mut img, &f, 2, 4, &|_| true);
     assert!(img
         .pixels()
         .any(|p| *p == draw::WEDGE || *p == draw::TRISECTOR));

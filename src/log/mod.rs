@@ -18,6 +18,7 @@ pub mod reader;
 pub mod record;
 pub mod replay;
 pub mod topics;
+pub mod tum;
 pub mod writer;
 
 pub use reader::{read_log, LogContents, LoggedMessage};

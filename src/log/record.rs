@@ -2,10 +2,12 @@
 //! code feeds the file writer and `replay --verify`, so a re-run is compared byte for byte.
 
 use super::topics::{self, Topic};
-use crate::config::{Config, FieldConfig, LogConfig};
+use crate::config::{CameraConfig, Config, FieldConfig, LogConfig};
 use crate::field::{DegenerateKind, TensorField};
 use crate::map::{CellState, Map};
 use crate::plan::Action;
+use crate::render::palette;
+use crate::scene::TriMesh;
 use crate::sim::metrics::STAGES;
 use crate::sim::{Observer, RunResult, StepView};
 use crate::Pose2;
@@ -31,10 +33,19 @@ pub struct Recorder<S: Sink> {
     frames_seen: u64,
     next_key_frame_s: f64,
     stop: Option<Arc<AtomicBool>>,
+    camera: CameraConfig,
+    robot_radius_m: f64,
+    robot_height_m: f64,
+    /// `/scene`, built once from the mesh and written at the first step (then `None`).
+    scene: Option<Value>,
+    /// The travelled trajectory, simplified (see [`Trajectory`]).
+    trajectory: Trajectory,
 }
 
 impl<S: Sink> Recorder<S> {
-    pub fn new(sink: S, cfg: &Config, stop: Option<Arc<AtomicBool>>) -> Self {
+    /// A recorder of a run on `mesh` (the scene, logged once on `/scene`) under `cfg`; `stop`, when
+    /// set, ends the run cleanly (Ctrl-C).
+    pub fn new(sink: S, cfg: &Config, mesh: &TriMesh, stop: Option<Arc<AtomicBool>>) -> Self {
         Recorder {
             sink,
             cfg: cfg.log.clone(),
@@ -43,6 +54,11 @@ impl<S: Sink> Recorder<S> {
             frames_seen: 0,
             next_key_frame_s: 0.0,
             stop,
+            camera: cfg.camera.clone(),
+            robot_radius_m: cfg.robot.radius_m,
+            robot_height_m: cfg.robot.height_m,
+            scene: Some(scene_message(0.0, mesh)),
+            trajectory: Trajectory::default(),
         }
     }
 
@@ -72,6 +88,145 @@ fn pose_json(x: f64, y: f64, z: f64, yaw: f64) -> Value {
 /// `/robot/pose`: the robot on the floor, heading as a quaternion about +z.
 pub fn pose_message(time_s: f64, pose: Pose2) -> Value {
     json!({"timestamp": stamp(time_s), "frame_id": "world", "pose": pose_json(pose.x, pose.y, 0.0, pose.yaw)})
+}
+
+/// Rotation from `base_link` (x forward, y left, z up) to the camera's optical frame (z forward,
+/// x right, y down), as ROS and Foxglove expect for images: quaternion `(x, y, z, w)`.
+pub const OPTICAL_ROTATION: [f64; 4] = [-0.5, 0.5, -0.5, 0.5];
+
+fn transform(time_s: f64, parent: &str, child: &str, t: [f64; 3], q: [f64; 4]) -> Value {
+    json!({
+        "timestamp": stamp(time_s), "parent_frame_id": parent, "child_frame_id": child,
+        "translation": {"x": t[0], "y": t[1], "z": t[2]},
+        "rotation": {"x": q[0], "y": q[1], "z": q[2], "w": q[3]}
+    })
+}
+
+/// `/tf`: `world → base_link` (the robot on the floor) and the fixed `base_link → camera` (the
+/// optical frame at the mount height). The fixed transform is repeated in every message so that a
+/// viewer that seeks (and reads back only the latest `/tf`) still has the whole tree.
+pub fn tf_message(time_s: f64, pose: Pose2, camera: &CameraConfig) -> Value {
+    let (s, c) = (pose.yaw / 2.0).sin_cos();
+    json!({"transforms": [
+        transform(time_s, "world", "base_link", [pose.x, pose.y, 0.0], [0.0, 0.0, s, c]),
+        transform(time_s, "base_link", "camera", [0.0, 0.0, camera.mount_height_m], OPTICAL_ROTATION),
+    ]})
+}
+
+/// The pinhole intrinsics `(fx, fy, cx, cy)` of the depth camera, pixels, with pixel centres at
+/// integer coordinates (ROS convention): ray `(col, row)` leaves through `((col + 0.5)/w·2 − 1)·tan(hfov/2)`
+/// (see `DepthCamera::new`), so `fx = w / (2 tan(hfov/2))` and `cx = w/2 − 0.5`.
+pub fn intrinsics(camera: &CameraConfig) -> [f64; 4] {
+    let (w, h) = (camera.width as f64, camera.height as f64);
+    let fx = w / (2.0 * (camera.hfov_deg.to_radians() / 2.0).tan());
+    let fy = h / (2.0 * (camera.vfov_deg.to_radians() / 2.0).tan());
+    [fx, fy, w / 2.0 - 0.5, h / 2.0 - 0.5]
+}
+
+/// `/camera/calibration`: the depth camera's pinhole model (no distortion), in the `camera` frame.
+pub fn calibration_message(time_s: f64, camera: &CameraConfig) -> Value {
+    let [fx, fy, cx, cy] = intrinsics(camera);
+    json!({
+        "timestamp": stamp(time_s), "frame_id": "camera",
+        "width": camera.width, "height": camera.height,
+        "distortion_model": "plumb_bob", "D": [0.0, 0.0, 0.0, 0.0, 0.0],
+        "K": [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
+        "R": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        "P": [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    })
+}
+
+/// Rounds a coordinate to a tenth of a millimetre for display topics (halves their size; far
+/// below any resolution in the simulation).
+fn r4(v: f64) -> f64 {
+    (v * 1e4).round() / 1e4
+}
+
+/// `/scene`: the scene mesh as one faint grey `TriangleListPrimitive` in `world` (shared vertices
+/// through `indices`), an entity of its own that the viewer can hide.
+pub fn scene_message(time_s: f64, mesh: &TriMesh) -> Value {
+    let points: Vec<Value> = mesh
+        .vertices
+        .iter()
+        .map(|v| json!({"x": r4(f64::from(v.x)), "y": r4(f64::from(v.y)), "z": r4(f64::from(v.z))}))
+        .collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let mut e = entity_value(time_s, "world", "scene_mesh", false);
+    e["triangles"] = json!([{
+        "pose": pose_json(0.0, 0.0, 0.0, 0.0), "points": points,
+        "color": colour_alpha(palette::SCENE_MESH, 0.25), "colors": [], "indices": indices
+    }]);
+    update(e)
+}
+
+/// `/robot/footprint`: the robot's disc (a cylinder of its radius and height) and a heading arrow,
+/// in `base_link` and frame-locked, so the viewer moves it with `/tf`.
+pub fn footprint_message(time_s: f64, radius_m: f64, height_m: f64) -> Value {
+    let mut e = entity_value(time_s, "base_link", "robot", true);
+    e["cylinders"] = json!([{
+        "pose": pose_json(0.0, 0.0, height_m / 2.0, 0.0),
+        "size": {"x": 2.0 * radius_m, "y": 2.0 * radius_m, "z": height_m},
+        "bottom_scale": 1.0, "top_scale": 1.0, "color": colour_alpha(palette::ROBOT, 0.6)
+    }]);
+    e["arrows"] = json!([{
+        "pose": pose_json(0.0, 0.0, height_m + 0.05, 0.0),
+        "shaft_length": 1.5 * radius_m, "shaft_diameter": 0.05,
+        "head_length": 0.15, "head_diameter": 0.12, "color": colour(palette::ROBOT)
+    }]);
+    update(e)
+}
+
+/// The travelled path with collinear runs dropped: a pose is kept when a skipped point would lie
+/// more than [`Trajectory::TOLERANCE_M`] from the straight segment that replaces it, so the line
+/// drawn differs from the driven path by at most that much.
+#[derive(Debug, Default)]
+pub struct Trajectory {
+    /// Kept points.
+    pub kept: Vec<[f64; 2]>,
+    /// Points since the last kept one (the candidate segment's interior and its end).
+    tail: Vec<[f64; 2]>,
+}
+
+impl Trajectory {
+    pub const TOLERANCE_M: f64 = 0.01;
+
+    pub fn push(&mut self, p: [f64; 2]) {
+        let Some(&a) = self.kept.last() else {
+            self.kept.push(p);
+            return;
+        };
+        let off = |q: &[f64; 2]| {
+            let (dx, dy) = (p[0] - a[0], p[1] - a[1]);
+            let len = dx.hypot(dy);
+            if len < 1e-12 {
+                (q[0] - a[0]).hypot(q[1] - a[1])
+            } else {
+                ((q[0] - a[0]) * dy - (q[1] - a[1]) * dx).abs() / len
+            }
+        };
+        if self.tail.iter().any(|q| off(q) > Self::TOLERANCE_M) {
+            let last = *self.tail.last().expect("non-empty when a point deviates");
+            self.kept.push(last);
+            self.tail.clear();
+        }
+        self.tail.push(p);
+    }
+
+    /// The line to draw: the kept points and the current position.
+    pub fn points(&self) -> impl Iterator<Item = &[f64; 2]> {
+        self.kept.iter().chain(self.tail.last())
+    }
+}
+
+/// `/robot/trajectory`: the path travelled so far as a line strip in `world`.
+pub fn trajectory_message(time_s: f64, trajectory: &Trajectory) -> Value {
+    let points: Vec<Value> = trajectory
+        .points()
+        .map(|p| json!({"x": r4(p[0]), "y": r4(p[1]), "z": 0.02}))
+        .collect();
+    let mut e = entity_value(time_s, "world", "trajectory", false);
+    e["lines"] = json!([line_strip(&points, palette::PATH, 0.04)]);
+    update(e)
 }
 
 /// `/camera/depth`: 32FC1 depth along the optical axis, metres (0 = no return).
@@ -126,14 +281,24 @@ pub fn grid_message(time_s: f64, map: &Map) -> Value {
     })
 }
 
-/// `/field/tensor`: the field's `a`, `b` (tensor components) and constraint weight as float32.
+/// `v` as float32 rounded to 10 mantissa bits (relative error at most 2⁻¹¹ ≈ 0.05 %): full float32
+/// noise in the low bits does not compress, and the field dominated the log's size (office_large:
+/// 55 MB → 39 MB with this rounding; see README, run logs).
+pub fn round_f32(v: f64) -> f32 {
+    const DROP: u32 = 13;
+    let bits = (v as f32).to_bits();
+    f32::from_bits(bits.wrapping_add(1 << (DROP - 1)) & !((1 << DROP) - 1))
+}
+
+/// `/field/tensor`: the field's `a`, `b` (tensor components) and constraint weight as float32,
+/// rounded by [`round_f32`].
 pub fn field_tensor_message(time_s: f64, field: &TensorField) -> Value {
     let f = field.field();
     let g = f.spec;
     let mut data = Vec::with_capacity(g.cells() * 12);
     for i in 0..g.cells() {
         for v in [f.ab[i][0], f.ab[i][1], f.weight[i]] {
-            data.extend_from_slice(&(v as f32).to_le_bytes());
+            data.extend_from_slice(&round_f32(v).to_le_bytes());
         }
     }
     json!({
@@ -147,75 +312,90 @@ pub fn field_tensor_message(time_s: f64, field: &TensorField) -> Value {
     })
 }
 
-/// `/field/degenerate`: one sphere per degenerate point, wedges green, trisectors red, others grey.
+/// `/field/degenerate`: one sphere per degenerate point, coloured by type (the palette's wedge,
+/// trisector and other colours).
 pub fn degenerate_message(time_s: f64, field: &TensorField) -> Value {
-    let spheres = field
+    let spheres: Vec<Value> = field
         .points()
         .iter()
         .map(|p| {
             let c = match p.kind {
-                DegenerateKind::Wedge => [40, 180, 60],
-                DegenerateKind::Trisector => [220, 40, 40],
-                _ => [120, 120, 120],
+                DegenerateKind::Wedge => palette::WEDGE,
+                DegenerateKind::Trisector => palette::TRISECTOR,
+                _ => palette::OTHER_DEGENERATE,
             };
             json!({"pose": pose_json(p.x, p.y, 0.3, 0.0), "size": {"x": 0.3, "y": 0.3, "z": 0.3}, "color": colour(c)})
         })
         .collect();
-    entity(time_s, "degenerate_points", spheres, Vec::new())
+    let mut e = entity_value(time_s, "world", "degenerate_points", false);
+    e["spheres"] = Value::Array(spheres);
+    update(e)
 }
 
-/// `/field/topology`: separatrices as grey line strips and topology-graph edges as blue ones (each
-/// edge is a traced separatrix or a shortest-path pairing between two points).
+fn line_strip(points: &[Value], c: image::Rgb<u8>, thickness: f64) -> Value {
+    json!({
+        "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": thickness,
+        "scale_invariant": false, "points": points, "color": colour(c),
+        "colors": [], "indices": []
+    })
+}
+
+/// `/field/topology`: separatrices as thin line strips and topology-graph edges as thicker ones
+/// (each edge is a traced separatrix or a shortest-path pairing between two points).
 pub fn topology_message(time_s: f64, field: &TensorField) -> Value {
-    let strip = |polyline: &[[f64; 2]], c: [u8; 3], thickness: f64| {
+    let strip = |polyline: &[[f64; 2]], c, thickness: f64| {
         let points: Vec<Value> = polyline
             .iter()
             .map(|p| json!({"x": p[0], "y": p[1], "z": 0.2}))
             .collect();
-        json!({
-            "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": thickness,
-            "scale_invariant": false, "points": points, "color": colour(c),
-            "colors": [], "indices": []
-        })
+        line_strip(&points, c, thickness)
     };
     let graph = field.graph();
-    let lines = graph
+    let lines: Vec<Value> = graph
         .separatrices
         .iter()
-        .map(|s| strip(&s.polyline, [150, 150, 150], 0.03))
+        .map(|s| strip(&s.polyline, palette::SEPARATRIX, 0.03))
         .chain(
             graph
                 .edges
                 .iter()
-                .map(|e| strip(&e.polyline, [40, 90, 220], 0.06)),
+                .map(|e| strip(&e.polyline, palette::TOPOLOGY_EDGE, 0.06)),
         )
         .collect();
-    entity(time_s, "topology", Vec::new(), lines)
+    let mut e = entity_value(time_s, "world", "topology", false);
+    e["lines"] = Value::Array(lines);
+    update(e)
 }
 
-/// A distinct colour per frontier group (cycled).
-pub const GROUP_COLOURS: [[u8; 3]; 8] = [
-    [230, 25, 75],
-    [60, 180, 75],
-    [0, 130, 200],
-    [245, 130, 48],
-    [145, 30, 180],
-    [70, 240, 240],
-    [240, 50, 230],
-    [128, 128, 0],
-];
+fn colour(c: image::Rgb<u8>) -> Value {
+    colour_alpha(c, 1.0)
+}
 
-fn colour(c: [u8; 3]) -> Value {
-    json!({"r": f64::from(c[0]) / 255.0, "g": f64::from(c[1]) / 255.0, "b": f64::from(c[2]) / 255.0, "a": 1.0})
+fn colour_alpha(c: image::Rgb<u8>, a: f64) -> Value {
+    let [r, g, b] = c.0;
+    json!({"r": f64::from(r) / 255.0, "g": f64::from(g) / 255.0, "b": f64::from(b) / 255.0, "a": a})
+}
+
+/// A `SceneEntity` with every primitive list empty (the official schema requires them all).
+fn entity_value(time_s: f64, frame_id: &str, id: &str, frame_locked: bool) -> Value {
+    json!({
+        "timestamp": stamp(time_s), "frame_id": frame_id, "id": id,
+        "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": frame_locked, "metadata": [],
+        "arrows": [], "cubes": [], "spheres": [], "cylinders": [], "lines": [],
+        "triangles": [], "texts": [], "models": []
+    })
+}
+
+/// A `SceneUpdate` that adds or replaces `entity`.
+fn update(entity: Value) -> Value {
+    json!({"deletions": [], "entities": [entity]})
 }
 
 fn entity(time_s: f64, id: &str, spheres: Vec<Value>, lines: Vec<Value>) -> Value {
-    json!({"deletions": [], "entities": [{
-        "timestamp": stamp(time_s), "frame_id": "world", "id": id,
-        "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": false, "metadata": [],
-        "arrows": [], "cubes": [], "spheres": spheres, "cylinders": [], "lines": lines,
-        "triangles": [], "texts": [], "models": []
-    }]})
+    let mut e = entity_value(time_s, "world", id, false);
+    e["spheres"] = Value::Array(spheres);
+    e["lines"] = Value::Array(lines);
+    update(e)
 }
 
 /// `/plan/frontiers`: one sphere per frontier cell, coloured by its group (segment).
@@ -223,7 +403,7 @@ pub fn frontiers_message(time_s: f64, map: &Map) -> Value {
     let g = map.grid();
     let mut spheres = Vec::new();
     for (group, seg) in map.frontiers().iter().enumerate() {
-        let c = colour(GROUP_COLOURS[group % GROUP_COLOURS.len()]);
+        let c = colour(palette::GROUP_COLOURS[group % palette::GROUP_COLOURS.len()]);
         for &cell in &seg.cells {
             let p = g.center(cell);
             spheres.push(json!({
@@ -244,18 +424,14 @@ pub fn path_message(time_s: f64, action: &Action) -> Value {
             .collect(),
         _ => Vec::new(),
     };
-    let line = json!({
-        "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": 0.05,
-        "scale_invariant": false, "points": points, "color": colour([30, 90, 220]),
-        "colors": [], "indices": []
-    });
+    let line = line_strip(&points, palette::PLAN_PATH, 0.05);
     entity(time_s, "astar_path", Vec::new(), vec![line])
 }
 
 /// `/plan/tour`: the planner's tour (THP: anchors and groups in TSP order; NBV-TSP: viewpoints in GA
-/// order) as an orange line strip with a sphere per stop, the first one larger. Empty without a tour.
+/// order) as a line strip in the palette's tour colour with a sphere per stop, the first one larger. Empty without a tour.
 pub fn tour_message(time_s: f64, tour: &[Point2<f64>]) -> Value {
-    let orange = colour([245, 130, 48]);
+    let orange = colour(palette::TOUR);
     let spheres = tour
         .iter()
         .enumerate()
@@ -271,11 +447,7 @@ pub fn tour_message(time_s: f64, tour: &[Point2<f64>]) -> Value {
         .iter()
         .map(|p| json!({"x": p.x, "y": p.y, "z": 0.1}))
         .collect();
-    let line = json!({
-        "type": 0, "pose": pose_json(0.0, 0.0, 0.0, 0.0), "thickness": 0.04,
-        "scale_invariant": false, "points": points, "color": orange,
-        "colors": [], "indices": []
-    });
+    let line = line_strip(&points, palette::TOUR, 0.04);
     entity(time_s, "tour", spheres, vec![line])
 }
 
@@ -291,11 +463,22 @@ pub fn metrics_message(view: &StepView) -> Value {
 
 impl<S: Sink> Observer for Recorder<S> {
     fn on_step(&mut self, view: &StepView) {
+        if let Some(scene) = self.scene.take() {
+            // Once, at the first step: the scene mesh and the robot's footprint (frame-locked to
+            // `base_link`, so it follows `/tf`).
+            self.put(&topics::SCENE, view.time_s, &scene);
+            let footprint =
+                footprint_message(view.time_s, self.robot_radius_m, self.robot_height_m);
+            self.put(&topics::ROBOT, view.time_s, &footprint);
+        }
         self.put(
             &topics::POSE,
             view.time_s,
             &pose_message(view.time_s, view.pose),
         );
+        let tf = tf_message(view.time_s, view.pose, &self.camera);
+        self.put(&topics::TF, view.time_s, &tf);
+        self.trajectory.push([view.pose.x, view.pose.y]);
         if let Some(frame) = view.frame {
             let n = self.cfg.depth_every_n;
             if n > 0 && self.frames_seen.is_multiple_of(n) {
@@ -304,6 +487,8 @@ impl<S: Sink> Observer for Recorder<S> {
                     view.time_s,
                     &depth_message(view.time_s, frame),
                 );
+                let calibration = calibration_message(view.time_s, &self.camera);
+                self.put(&topics::CAMERA_INFO, view.time_s, &calibration);
             }
             self.frames_seen += 1;
         }
@@ -313,6 +498,8 @@ impl<S: Sink> Observer for Recorder<S> {
                 view.time_s,
                 &grid_message(view.time_s, view.map),
             );
+            let trajectory = trajectory_message(view.time_s, &self.trajectory);
+            self.put(&topics::TRAJECTORY, view.time_s, &trajectory);
             if self.cfg.field {
                 // The planner's own field when it has one (what THP and TENSOR steer by, path
                 // constraints included); else one built here from the map.
@@ -376,5 +563,62 @@ mod tests {
         assert!((v["pose"]["orientation"]["z"].as_f64().unwrap() - 1.0).abs() < 1e-12);
         assert!(v["pose"]["orientation"]["w"].as_f64().unwrap().abs() < 1e-12);
         assert_eq!(time_ns(270.4), 270_400_000_000);
+    }
+
+    #[test]
+    fn rounded_floats_keep_three_digits_and_exact_zeros() {
+        for v in [0.0, 1.0, -1.0, 0.123456, -3.5e-7, 12345.678] {
+            let r = f64::from(round_f32(v));
+            assert!((r - v).abs() <= v.abs() * 2f64.powi(-11), "{v} -> {r}");
+        }
+        assert_eq!(round_f32(0.0), 0.0);
+        assert_eq!(round_f32(0.75), 0.75);
+        assert_eq!(round_f32(1.0 + 2f64.powi(-20)), 1.0);
+    }
+
+    #[test]
+    fn trajectory_keeps_corners_and_drops_collinear_points() {
+        let mut t = Trajectory::default();
+        for k in 0..=10 {
+            t.push([k as f64 * 0.1, 0.0]);
+        }
+        for k in 1..=10 {
+            t.push([1.0, k as f64 * 0.1]);
+        }
+        let pts: Vec<[f64; 2]> = t.points().copied().collect();
+        assert_eq!(pts.len(), 3, "{pts:?}");
+        assert!((pts[1][0] - 1.0).abs() < 1e-12 && pts[1][1].abs() < 1e-12);
+        assert!((pts[2][1] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn optical_frame_looks_along_base_link_x() {
+        // Rotate the optical z axis (0, 0, 1) by OPTICAL_ROTATION: it must become base_link's +x,
+        // and the optical y axis (image down) must become −z.
+        let [x, y, z, w] = OPTICAL_ROTATION;
+        let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        let fwd = q * nalgebra::Vector3::z();
+        let down = q * nalgebra::Vector3::y();
+        assert!((fwd - nalgebra::Vector3::x()).norm() < 1e-12);
+        assert!((down + nalgebra::Vector3::z()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn intrinsics_match_the_ray_directions() {
+        let cam = crate::Config::default().camera;
+        let [fx, fy, cx, cy] = intrinsics(&cam);
+        let c = crate::sensor::DepthCamera::new(&cam);
+        // Ray (col, row) in the optical frame is ((col − cx)/fx, (row − cy)/fy, 1), normalised; the
+        // camera's own directions are (forward, left, up) = (1, −right, −down).
+        for (col, row) in [(0, 0), (cam.width - 1, 7), (13, cam.height - 1)] {
+            let d = c.camera_dirs()[row * cam.width + col].cast::<f64>();
+            let right = (col as f64 - cx) / fx;
+            let down = (row as f64 - cy) / fy;
+            let expect = nalgebra::Vector3::new(1.0, -right, -down).normalize();
+            assert!(
+                (d - expect).norm() < 1e-6,
+                "{col},{row}: {d:?} vs {expect:?}"
+            );
+        }
     }
 }

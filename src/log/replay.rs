@@ -325,7 +325,7 @@ pub fn verify(log: &LogContents, log_path: Option<&Path>) -> Result<Verification
         prefix_only: cut_off,
         exhausted: &exhausted,
     };
-    let mut rec = Recorder::new(comparer, &cfg, None);
+    let mut rec = Recorder::new(comparer, &cfg, &scene.mesh, None);
     let mut observer = StopAfter {
         inner: &mut rec,
         steps: interrupted.map(|r| r.steps),
@@ -484,7 +484,10 @@ fn latest<T>(items: &[(u64, T)], t_ns: u64) -> Option<&T> {
 /// `log.field` was on.
 pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     use super::record::{GRID_FREE, GRID_FRONTIER, GRID_OBSTACLE};
-    use crate::render::{Canvas, END, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
+    use crate::render::palette::{
+        fade, FOV, GLYPH, PLAN_PATH, ROBOT, SEPARATRIX, TOPOLOGY_EDGE, TOUR,
+    };
+    use crate::render::{Canvas, FREE, FRONTIER, OCCUPIED, PATH, START, UNKNOWN};
     let grids = decoded(log, &topics::MAP_GRID, decode_grid);
     let poses = decoded(log, &topics::POSE, decode_pose);
     let frontiers = decoded(log, &topics::PLAN_FRONTIERS, |v| Some(decode_spheres(v)));
@@ -496,7 +499,22 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
     let tensors = decoded(log, &topics::FIELD_TENSOR, |v| {
         Some((decode_grid_at(v, 0)?, decode_grid_at(v, 4)?))
     });
-    let topology = decoded(log, &topics::FIELD_TOPOLOGY, |v| Some(decode_lines(v)));
+    let topology = decoded(log, &topics::FIELD_TOPOLOGY, |v| {
+        let colours = v["entities"][0]["lines"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|l| {
+                let ch = |k: &str| (l["color"][k].as_f64().unwrap_or(0.0) * 255.0).round() as u8;
+                let c = image::Rgb([ch("r"), ch("g"), ch("b")]);
+                if c == TOPOLOGY_EDGE {
+                    TOPOLOGY_EDGE
+                } else {
+                    SEPARATRIX
+                }
+            });
+        Some(decode_lines(v).into_iter().zip(colours).collect::<Vec<_>>())
+    });
     let Some(end_ns) = poses.last().map(|p| p.0) else {
         return Err(Error::Runtime("the log has no poses to draw".into()));
     };
@@ -528,35 +546,42 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
                         let c = crate::Cell::new(ix as i32, iy as i32);
                         let i = a.grid.index(c);
                         let (ai, bi) = (f64::from(a.state[i]), f64::from(b.state[i]));
-                        if ai.hypot(bi) <= 0.0 {
+                        let p = a.grid.center(c);
+                        // Glyphs only over known free space of the map at that time.
+                        let known = g.grid.cell_of(p).is_some_and(|mc| {
+                            let s = g.state[g.grid.index(mc)];
+                            s == GRID_FREE || s == GRID_FRONTIER
+                        });
+                        if ai.hypot(bi) <= 0.0 || !known {
                             continue;
                         }
                         let theta = 0.5 * bi.atan2(ai);
                         let d = nalgebra::Vector2::new(theta.cos(), theta.sin()) * half;
-                        let p = a.grid.center(c);
-                        canvas.line(p - d, p + d, 1.0, image::Rgb([120, 160, 200]));
+                        canvas.line(p - d, p + d, 1.0, fade(GLYPH, 0.35));
+                        canvas.note(GLYPH);
                     }
                 }
             }
-            for line in latest(&topology, t_ns).into_iter().flatten() {
-                canvas.polyline(line, 1.0, image::Rgb([40, 150, 90]));
+            for (line, c) in latest(&topology, t_ns).into_iter().flatten() {
+                let width = if *c == TOPOLOGY_EDGE { 1.5 } else { 1.0 };
+                canvas.polyline(line, width, *c);
             }
             for (p, c) in latest(&frontiers, t_ns).into_iter().flatten() {
                 canvas.disc(*p, (cell_px * 0.6).max(1.5), *c);
             }
-            // Degenerate points by type (wedge green, trisector red), when the field was logged.
+            // Degenerate points by type (the palette's wedge and trisector colours, as logged).
             for (p, c) in latest(&degenerate, t_ns).into_iter().flatten() {
                 canvas.disc(*p, (cell_px * 1.5).max(3.0), *c);
             }
             if let Some((line, stops)) = latest(&tours, t_ns) {
-                canvas.polyline(line, 1.5, image::Rgb([245, 130, 48]));
+                canvas.polyline(line, 1.5, TOUR);
                 for (k, (p, c)) in stops.iter().enumerate() {
                     let r = if k == 0 { 2.0 } else { 1.2 } * cell_px;
                     canvas.disc(*p, r.max(2.0), *c);
                 }
             }
             if let Some(path) = latest(&paths, t_ns) {
-                canvas.polyline(path, 2.0, image::Rgb([150, 40, 200]));
+                canvas.polyline(path, 2.0, PLAN_PATH);
             }
         }
         let n = poses.partition_point(|(t, _)| *t <= t_ns);
@@ -567,13 +592,36 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
         {
             let r = (0.25 / g.grid.res * cell_px).max(3.0);
             canvas.disc(*first, r, START);
+            // The field of view: rays across the FOV, each stopped at the first obstacle cell of
+            // the map (marched in steps of half a cell); the outline joins the two edge rays and
+            // the rays' ends.
             let half = hfov.to_radians() / 2.0;
-            let ray = |a: f64| pose.position() + nalgebra::Vector2::new(a.cos(), a.sin()) * range;
-            let (left, right) = (ray(pose.yaw + half), ray(pose.yaw - half));
-            canvas.line(pose.position(), left, 1.0, END);
-            canvas.line(pose.position(), right, 1.0, END);
-            canvas.line(left, right, 1.0, END);
-            canvas.disc(pose.position(), r, END);
+            let o = pose.position();
+            let step = g.grid.res / 2.0;
+            let ray = |a: f64| {
+                let d = nalgebra::Vector2::new(a.cos(), a.sin());
+                let mut t = 0.0;
+                while t < range {
+                    let next = (t + step).min(range);
+                    let hit = g
+                        .grid
+                        .cell_of(o + d * next)
+                        .is_some_and(|c| g.state[g.grid.index(c)] == GRID_OBSTACLE);
+                    if hit {
+                        break;
+                    }
+                    t = next;
+                }
+                o + d * t
+            };
+            const RAYS: usize = 24;
+            let ends: Vec<_> = (0..=RAYS)
+                .map(|k| ray(pose.yaw + half - 2.0 * half * k as f64 / RAYS as f64))
+                .collect();
+            canvas.line(o, ends[0], 1.0, FOV);
+            canvas.line(o, ends[RAYS], 1.0, FOV);
+            canvas.polyline(&ends, 1.0, FOV);
+            canvas.disc(o, r, ROBOT);
         }
         Some(canvas)
     };

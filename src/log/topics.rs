@@ -1,6 +1,7 @@
 //! The topic registry: every channel a run log can hold, its schema name and JSON schema.
 //! Adding a topic is one `Topic` constant here, one entry in [`TOPICS`] and one builder function in
-//! `record.rs`. Schemas follow Foxglove's published JSON schemas (trimmed to the fields we write).
+//! `record.rs`. Every `foxglove.*` channel carries Foxglove's official JSON schema of its name, whole (vendored in
+//! `assets/foxglove-schemas/`); `/metrics` carries a schema of ours.
 
 /// One channel of the log.
 #[derive(Debug)]
@@ -25,30 +26,55 @@ macro_rules! schema {
     };
 }
 
+/// Foxglove's official JSON schema named `foxglove.$name`, whole, from the vendored
+/// `@foxglove/schemas` 2.1.0 files in `assets/foxglove-schemas/` (MIT).
+macro_rules! foxglove_schema {
+    ($name:literal) => {
+        include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/foxglove-schemas/",
+            $name,
+            ".json"
+        ))
+    };
+}
+
+const POSE_IN_FRAME_SCHEMA: &str = foxglove_schema!("PoseInFrame");
+const RAW_IMAGE_SCHEMA: &str = foxglove_schema!("RawImage");
+const GRID_SCHEMA: &str = foxglove_schema!("Grid");
+const SCENE_UPDATE_SCHEMA: &str = foxglove_schema!("SceneUpdate");
+const FRAME_TRANSFORMS_SCHEMA: &str = foxglove_schema!("FrameTransforms");
+const CAMERA_CALIBRATION_SCHEMA: &str = foxglove_schema!("CameraCalibration");
+
 pub const POSE: Topic = Topic {
     name: "/robot/pose",
     schema_name: "foxglove.PoseInFrame",
-    schema_json: schema!(
-        "foxglove.PoseInFrame",
-        r#"{"timestamp":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_id":{"type":"string"},"pose":{"type":"object","properties":{"position":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"orientation":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}}}"#
-    ),
+    schema_json: POSE_IN_FRAME_SCHEMA,
+    verified: true,
+};
+
+/// `world → base_link` every step and the fixed `base_link → camera` (optical frame) with it.
+pub const TF: Topic = Topic {
+    name: "/tf",
+    schema_name: "foxglove.FrameTransforms",
+    schema_json: FRAME_TRANSFORMS_SCHEMA,
     verified: true,
 };
 
 pub const DEPTH: Topic = Topic {
     name: "/camera/depth",
     schema_name: "foxglove.RawImage",
-    schema_json: schema!(
-        "foxglove.RawImage",
-        r#"{"timestamp":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_id":{"type":"string"},"width":{"type":"integer"},"height":{"type":"integer"},"encoding":{"type":"string"},"step":{"type":"integer"},"data":{"type":"string","contentEncoding":"base64"}}"#
-    ),
+    schema_json: RAW_IMAGE_SCHEMA,
     verified: true,
 };
 
-const GRID_SCHEMA: &str = schema!(
-    "foxglove.Grid",
-    r#"{"timestamp":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_id":{"type":"string"},"pose":{"type":"object","properties":{"position":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"orientation":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}},"column_count":{"type":"integer"},"cell_size":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}},"row_stride":{"type":"integer"},"cell_stride":{"type":"integer"},"fields":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer"},"type":{"type":"integer"}}}},"data":{"type":"string","contentEncoding":"base64"}}"#
-);
+/// The depth camera's pinhole model, with every depth image.
+pub const CAMERA_INFO: Topic = Topic {
+    name: "/camera/calibration",
+    schema_name: "foxglove.CameraCalibration",
+    schema_json: CAMERA_CALIBRATION_SCHEMA,
+    verified: true,
+};
 
 pub const MAP_GRID: Topic = Topic {
     name: "/map/grid",
@@ -57,10 +83,28 @@ pub const MAP_GRID: Topic = Topic {
     verified: true,
 };
 
-const SCENE_UPDATE_SCHEMA: &str = schema!(
-    "foxglove.SceneUpdate",
-    r#"{"deletions":{"type":"array","items":{"type":"object"}},"entities":{"type":"array","items":{"type":"object","properties":{"timestamp":{"type":"object"},"frame_id":{"type":"string"},"id":{"type":"string"},"lifetime":{"type":"object"},"frame_locked":{"type":"boolean"},"metadata":{"type":"array"},"arrows":{"type":"array"},"cubes":{"type":"array"},"spheres":{"type":"array"},"cylinders":{"type":"array"},"lines":{"type":"array"},"triangles":{"type":"array"},"texts":{"type":"array"},"models":{"type":"array"}}}}}"#
-);
+/// The scene mesh, once, as a faint triangle list in `world`.
+pub const SCENE: Topic = Topic {
+    name: "/scene",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
+
+/// The robot's footprint (a disc in `base_link`) and the travelled trajectory (a line in `world`).
+pub const ROBOT: Topic = Topic {
+    name: "/robot/footprint",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
+
+pub const TRAJECTORY: Topic = Topic {
+    name: "/robot/trajectory",
+    schema_name: "foxglove.SceneUpdate",
+    schema_json: SCENE_UPDATE_SCHEMA,
+    verified: true,
+};
 
 pub const PLAN_FRONTIERS: Topic = Topic {
     name: "/plan/frontiers",
@@ -115,9 +159,14 @@ pub const METRICS: Topic = Topic {
 };
 
 /// Every topic, in channel-id order.
-pub const TOPICS: [&Topic; 10] = [
+pub const TOPICS: [&Topic; 15] = [
     &POSE,
+    &TF,
+    &ROBOT,
+    &TRAJECTORY,
+    &SCENE,
     &DEPTH,
+    &CAMERA_INFO,
     &MAP_GRID,
     &FIELD_TENSOR,
     &FIELD_DEGENERATE,
@@ -148,5 +197,26 @@ mod tests {
         names.sort();
         names.dedup();
         assert_eq!(names.len(), TOPICS.len());
+    }
+
+    #[test]
+    fn foxglove_layout_names_only_logged_topics() {
+        let layout: serde_json::Value = serde_json::from_str(include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/foxglove-layout.json"
+        )))
+        .unwrap();
+        let panels = layout["configById"].as_object().unwrap();
+        let three_d = &panels["3D!tensorscout"]["topics"];
+        for t in three_d.as_object().unwrap().keys() {
+            assert!(by_name(t).is_some(), "layout topic {t} is not logged");
+        }
+        for t in ["/scene", "/tf", "/field/tensor", "/plan/tour"] {
+            assert!(by_name(t).is_some());
+        }
+        let image = &panels["Image!tensorscoutdepth"]["imageMode"];
+        assert_eq!(image["imageTopic"], DEPTH.name);
+        assert_eq!(image["calibrationTopic"], CAMERA_INFO.name);
+        assert_eq!(panels["3D!tensorscout"]["followTf"], "base_link");
     }
 }

@@ -5,6 +5,7 @@
 pub mod extrude;
 pub mod generate;
 pub mod geometry;
+pub mod gltf_mesh;
 pub mod ground_truth;
 pub mod houseexpo;
 pub mod mesh;
@@ -43,9 +44,11 @@ pub struct Scene {
 /// in a PLY header.
 const SPAWN_MARKER: &str = "tensorscout spawn";
 
-/// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.yaml`/`.yml`, `.json`).
+/// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.gltf`/`.glb`, `.yaml`/`.yml`,
+/// `.json`).
 pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
-    const EXPECTED: &str = "expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan";
+    const EXPECTED: &str =
+        "expected .obj, .ply, .gltf/.glb, .yaml/.yml ROS map or .json HouseExpo plan";
     if path.is_dir() {
         return Err(Error::usage(format!(
             "{}: is a folder, not a scene file ({EXPECTED})",
@@ -77,6 +80,12 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
                 rotate_y_up_to_z_up(&mut mesh);
             }
             (mesh, spawn, bytes, ext.clone())
+        }
+        "gltf" | "glb" => {
+            let bytes = read_nonempty(path)?;
+            // glTF is y-up by its specification: always converted, whatever `scene.y_up` says.
+            let (mesh, hash_bytes) = gltf_mesh::parse(path, &bytes)?;
+            (mesh, None, hash_bytes, ext.clone())
         }
         "yaml" | "yml" => {
             let imported = rosmap::import(path, cfg)?;
@@ -732,7 +741,7 @@ f 2 3 7 6
         let unknown = err(d, "x.stl", "solid\n");
         assert_eq!(
             unknown,
-            format!("{}: unknown scene format `.stl` (expected .obj, .ply, .yaml/.yml ROS map or .json HouseExpo plan)", pd("x.stl"))
+            format!("{}: unknown scene format `.stl` (expected .obj, .ply, .gltf/.glb, .yaml/.yml ROS map or .json HouseExpo plan)", pd("x.stl"))
         );
         assert_eq!(
             err(

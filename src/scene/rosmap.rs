@@ -51,7 +51,7 @@ pub fn import(path: &Path, cfg: &SceneConfig) -> Result<ImportedMap> {
     let yaml = parse_yaml(path, text)?;
     let image_path = path.parent().unwrap_or(Path::new(".")).join(&yaml.image);
     let image_bytes = super::read_nonempty(&image_path)?;
-    let pgm = parse_pgm(&image_path, &image_bytes)?;
+    let pgm = read_image(&image_path, &image_bytes)?;
     let (mesh, free_cells) = extrude_map(path, &yaml, &pgm, cfg)?;
     let mut hash_bytes = yaml_bytes;
     hash_bytes.extend_from_slice(&image_bytes);
@@ -62,8 +62,53 @@ pub fn import(path: &Path, cfg: &SceneConfig) -> Result<ImportedMap> {
     })
 }
 
-/// Parses the flat map_server yaml (`key: value` lines, `#` comments, `origin: [x, y, yaw]`).
+/// A YAML node's scalar, through any tag.
+fn scalar<'a>(node: &'a saphyr::Yaml<'a>) -> Option<&'a saphyr::Scalar<'a>> {
+    match node {
+        saphyr::Yaml::Value(s) => Some(s),
+        saphyr::Yaml::Tagged(_, inner) => scalar(inner),
+        _ => None,
+    }
+}
+
+/// A scalar as text (a quoted or plain string, or a number or boolean as written).
+fn scalar_text(node: &saphyr::Yaml) -> Option<String> {
+    use saphyr::Scalar;
+    Some(match scalar(node)? {
+        Scalar::String(s) => s.to_string(),
+        Scalar::Integer(i) => i.to_string(),
+        Scalar::FloatingPoint(f) => f.to_string(),
+        Scalar::Boolean(b) => b.to_string(),
+        Scalar::Null => return None,
+    })
+}
+
+/// A scalar as a number (quoted numbers too, as map_server's yaml-cpp reads them).
+fn scalar_number(node: &saphyr::Yaml) -> Option<f64> {
+    use saphyr::Scalar;
+    match scalar(node)? {
+        Scalar::Integer(i) => Some(*i as f64),
+        Scalar::FloatingPoint(f) => Some(f.into_inner()),
+        Scalar::String(s) => s.trim().parse().ok(),
+        _ => None,
+    }
+}
+
+/// The farthest an origin may lie from 0, metres: beyond it, float32 vertices could not resolve a
+/// map cell (their spacing near 1e5 m is 8 mm).
+pub const MAX_ORIGIN_M: f64 = 1e5;
+
+/// Parses a map_server yaml with a YAML parser: block or flow style, comments, quoted values.
 pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
+    use saphyr::LoadableYamlNode;
+    let docs = saphyr::Yaml::load_from_str(text)
+        .map_err(|e| Error::scene(path, format!("map yaml does not parse: {e}")))?;
+    let Some(saphyr::Yaml::Mapping(map)) = docs.first() else {
+        return Err(Error::scene(
+            path,
+            "map yaml is not a mapping of `key: value` entries",
+        ));
+    };
     let mut image = None;
     let mut resolution = None;
     let mut origin = None;
@@ -71,65 +116,61 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
     let mut occupied_thresh = None;
     let mut free_thresh = None;
     let mut mode = "trinary".to_string();
-    let number = |key: &str, v: &str| -> Result<f64> {
-        v.parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| Error::scene(path, format!("key `{key}`: `{v}` is not a number")))
-    };
-    for line in text.lines() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if line.is_empty() {
-            continue;
-        }
-        let Some((key, value)) = line.split_once(':') else {
-            return Err(Error::scene(
+    let number = |key: &str, v: &saphyr::Yaml| -> Result<f64> {
+        scalar_number(v).filter(|x| x.is_finite()).ok_or_else(|| {
+            Error::scene(
                 path,
-                format!("expected `key: value`, got `{line}`"),
-            ));
-        };
-        let key = key.trim();
-        let value = value.trim().trim_matches(|c| c == '"' || c == '\'');
-        match key {
-            "image" => image = Some(PathBuf::from(value)),
-            "resolution" => resolution = Some(number(key, value)?),
+                format!(
+                    "key `{key}`: `{}` is not a number",
+                    scalar_text(v).unwrap_or_else(|| "(not a scalar)".into())
+                ),
+            )
+        })
+    };
+    for (k, value) in map {
+        let Some(key) = scalar_text(k) else { continue };
+        match key.as_str() {
+            "image" => {
+                image = Some(PathBuf::from(scalar_text(value).ok_or_else(|| {
+                    Error::scene(path, "key `image`: expected a file name")
+                })?))
+            }
+            "resolution" => resolution = Some(number(&key, value)?),
             "origin" => {
-                let inner = value
-                    .strip_prefix('[')
-                    .and_then(|v| v.strip_suffix(']'))
-                    .ok_or_else(|| {
-                        Error::scene(
-                            path,
-                            format!("key `origin`: expected [x, y, yaw], got `{value}`"),
-                        )
-                    })?;
-                let parts: Vec<f64> = inner
-                    .split(',')
-                    .map(|p| number(key, p.trim()))
+                let bad = || {
+                    Error::scene(
+                        path,
+                        "key `origin`: expected a list of three numbers [x, y, yaw]",
+                    )
+                };
+                let saphyr::Yaml::Sequence(items) = value else {
+                    return Err(bad());
+                };
+                let parts: Vec<f64> = items
+                    .iter()
+                    .map(|p| number("origin", p))
                     .collect::<Result<_>>()?;
                 let [x, y, yaw] = parts[..] else {
-                    return Err(Error::scene(
-                        path,
-                        format!("key `origin`: expected [x, y, yaw], got `{value}`"),
-                    ));
+                    return Err(bad());
                 };
                 origin = Some([x, y, yaw]);
             }
             "negate" => {
-                negate = match value {
+                let text = scalar_text(value).unwrap_or_default();
+                negate = match text.as_str() {
                     "0" | "false" | "False" => false,
                     "1" | "true" | "True" => true,
                     _ => {
                         return Err(Error::scene(
                             path,
-                            format!("key `negate`: expected 0 or 1, got `{value}`"),
+                            format!("key `negate`: expected 0 or 1, got `{text}`"),
                         ))
                     }
                 }
             }
-            "occupied_thresh" => occupied_thresh = Some(number(key, value)?),
-            "free_thresh" => free_thresh = Some(number(key, value)?),
-            "mode" => mode = value.to_string(),
+            "occupied_thresh" => occupied_thresh = Some(number(&key, value)?),
+            "free_thresh" => free_thresh = Some(number(&key, value)?),
+            "mode" => mode = scalar_text(value).unwrap_or_default(),
             // Other keys (e.g. map_server's `cost_translation_table`) do not affect geometry.
             _ => {}
         }
@@ -143,6 +184,18 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
         ));
     }
     let origin = origin.ok_or_else(|| missing("origin"))?;
+    if origin[0].abs() > MAX_ORIGIN_M || origin[1].abs() > MAX_ORIGIN_M {
+        return Err(Error::scene(
+            path,
+            format!(
+                "key `origin`: ({}, {}) is more than {} km from 0; coordinates that far cannot be \
+                 represented at the map's resolution (shift the origin)",
+                origin[0],
+                origin[1],
+                MAX_ORIGIN_M / 1000.0
+            ),
+        ));
+    }
     if origin[2].abs() > 1e-9 {
         // Simplification: a rotated map would need a rotated grid; map_saver always writes yaw 0.
         return Err(Error::scene(
@@ -175,6 +228,49 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
         occupied_thresh,
         free_thresh,
         mode,
+    })
+}
+
+/// Reads the map image: PGM (P5 or P2) with the reader below, anything else (PNG, BMP) with the
+/// `image` crate. Colour pixels are averaged to grey, as map_server does; alpha is ignored
+/// (simplification: map_server's `scale` mode treats transparent pixels as unknown).
+pub fn read_image(path: &Path, bytes: &[u8]) -> Result<Pgm> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if matches!(ext.as_str(), "pgm" | "pnm") || bytes.starts_with(b"P5") || bytes.starts_with(b"P2")
+    {
+        return parse_pgm(path, bytes);
+    }
+    use image::DynamicImage as D;
+    let img = image::load_from_memory(bytes)
+        .map_err(|e| Error::scene(path, format!("cannot read the map image: {e}")))?;
+    let (width, height) = (img.width() as usize, img.height() as usize);
+    let grey = |c: &[u16]| (c.iter().map(|&v| u32::from(v)).sum::<u32>() / c.len() as u32) as u16;
+    let (max_value, pixels): (u16, Vec<u16>) = match &img {
+        D::ImageLuma8(i) => (255, i.pixels().map(|p| u16::from(p.0[0])).collect()),
+        D::ImageLumaA8(i) => (255, i.pixels().map(|p| u16::from(p.0[0])).collect()),
+        D::ImageRgb8(_) | D::ImageRgba8(_) => (
+            255,
+            img.to_rgb8()
+                .pixels()
+                .map(|p| grey(&p.0.map(u16::from)))
+                .collect(),
+        ),
+        D::ImageLuma16(i) => (65535, i.pixels().map(|p| p.0[0]).collect()),
+        D::ImageLumaA16(i) => (65535, i.pixels().map(|p| p.0[0]).collect()),
+        _ => (65535, img.to_rgb16().pixels().map(|p| grey(&p.0)).collect()),
+    };
+    if width == 0 || height == 0 {
+        return Err(Error::scene(path, "the map image is empty"));
+    }
+    Ok(Pgm {
+        width,
+        height,
+        max_value,
+        pixels,
     })
 }
 
@@ -236,6 +332,12 @@ pub fn parse_pgm(path: &Path, bytes: &[u8]) -> Result<Pgm> {
                 n * bytes_per
             ))
         })?;
+        let extra = bytes.len() - pos - n * bytes_per;
+        if extra > 0 {
+            return Err(bad(&format!(
+                "{extra} bytes of pixel data beyond the header's {width} × {height} (is the header's size wrong?)"
+            )));
+        }
         if bytes_per == 1 {
             data.iter().map(|&b| b as u16).collect()
         } else {
@@ -245,6 +347,13 @@ pub fn parse_pgm(path: &Path, bytes: &[u8]) -> Result<Pgm> {
         }
     } else {
         let text = std::str::from_utf8(&bytes[pos..]).map_err(|_| bad("P2 data is not text"))?;
+        let tokens = text.split_whitespace().count();
+        if tokens > n {
+            return Err(bad(&format!(
+                "{} pixel values beyond the header's {width} × {height} (is the header's size wrong?)",
+                tokens - n
+            )));
+        }
         let values: Vec<u16> = text
             .split_whitespace()
             .take(n)
@@ -268,6 +377,44 @@ pub fn parse_pgm(path: &Path, bytes: &[u8]) -> Result<Pgm> {
         max_value: max_value as u16,
         pixels,
     })
+}
+
+/// File names of an exported map pair inside its folder.
+pub const MAP_YAML: &str = "map.yaml";
+pub const MAP_PGM: &str = "map.pgm";
+
+/// Trinary PGM values as ROS's map_saver writes them (negate 0, thresholds 0.65 / 0.196).
+pub const PGM_FREE: u8 = 254;
+pub const PGM_OCCUPIED: u8 = 0;
+pub const PGM_UNKNOWN: u8 = 205;
+
+/// The map_server yaml and the trinary P5 PGM of a 2D map: `states` is row-major over `grid`
+/// (row 0 at the smallest y), one cell per pixel at the grid's resolution, with the grid's
+/// minimum corner as `origin` (yaw 0). The PGM's first row is the grid's top row, as map_server
+/// reads it.
+pub fn ros_map_files(grid: &crate::GridSpec, states: &[CellState]) -> (String, Vec<u8>) {
+    let mut pgm = format!("P5\n# tensorscout map\n{} {}\n255\n", grid.nx, grid.ny).into_bytes();
+    for row in (0..grid.ny).rev() {
+        pgm.extend(
+            states[row * grid.nx..(row + 1) * grid.nx]
+                .iter()
+                .map(|s| match s {
+                    CellState::Free => PGM_FREE,
+                    CellState::Occupied => PGM_OCCUPIED,
+                    CellState::Unknown => PGM_UNKNOWN,
+                }),
+        );
+    }
+    let yaml = format!(
+        "# Written by tensorscout {}: the final occupancy map (trinary).\n\
+         image: {MAP_PGM}\nmode: trinary\nresolution: {}\norigin: [{}, {}, 0.0]\n\
+         negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+        crate::VERSION,
+        grid.res,
+        grid.origin_x,
+        grid.origin_y
+    );
+    (yaml, pgm)
 }
 
 /// The three cell states of a map.
@@ -492,5 +639,78 @@ mod tests {
             y("g.yaml", base),
             format!("{}: map has no known (free or occupied) cells", p("g.yaml"))
         );
+        // A header smaller than its data (P5 and P2).
+        std::fs::write(d.join("m.pgm"), b"P5 2 2 255\n\x00\x00\x00\x00\x00\x00").unwrap();
+        assert_eq!(
+            y("h.yaml", base),
+            format!(
+                "{}: not a valid PGM image: 2 bytes of pixel data beyond the header's 2 × 2 (is the header's size wrong?)",
+                p("m.pgm")
+            )
+        );
+        std::fs::write(d.join("m.pgm"), b"P2 2 1 255 0 0 0").unwrap();
+        assert!(y("i.yaml", base).contains("1 pixel values beyond the header's 2 × 1"));
+        // An origin far beyond any float32 resolution is named as such.
+        std::fs::write(d.join("m.pgm"), b"P2 2 1 255 0 254").unwrap();
+        let far = y("j.yaml", &base.replace("[0, 0, 0]", "[1e30, 0, 0]"));
+        assert!(
+            far.contains("key `origin`") && far.contains("more than 100 km from 0"),
+            "{far}"
+        );
+        // Not a mapping, and an origin that is not a list.
+        assert!(y("k.yaml", "- a\n- b\n").contains("not a mapping"));
+        assert!(y("l.yaml", &base.replace("[0, 0, 0]", "7"))
+            .contains("key `origin`: expected a list of three numbers"));
+    }
+
+    #[test]
+    fn block_and_flow_yaml_with_comments_and_quotes_parse_alike() {
+        let path = Path::new("m.yaml");
+        let flow = parse_yaml(
+            path,
+            "image: m.pgm\nresolution: 0.05\norigin: [-1.5, 2, 0.0]\nnegate: 0\n\
+             occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: scale\n",
+        )
+        .unwrap();
+        let block = parse_yaml(
+            path,
+            "# map_saver (ROS 2)\nimage: 'm.pgm'\nmode: \"scale\"  # quoted\nresolution: \"0.05\"\n\
+             origin:\n- -1.5\n- 2\n- 0.0\nnegate: false\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+        )
+        .unwrap();
+        assert_eq!(flow, block);
+        assert_eq!(block.origin, [-1.5, 2.0, 0.0]);
+        assert_eq!(block.mode, "scale");
+    }
+
+    #[test]
+    fn exported_map_reads_back_cell_for_cell() {
+        let grid = crate::GridSpec {
+            origin_x: -1.25,
+            origin_y: 3.5,
+            res: 0.1,
+            nx: 4,
+            ny: 3,
+            nz: 1,
+        };
+        use CellState::*;
+        let states = vec![
+            Free, Free, Occupied, Unknown, //
+            Unknown, Free, Free, Occupied, //
+            Occupied, Occupied, Free, Free,
+        ];
+        let (yaml_text, pgm_bytes) = ros_map_files(&grid, &states);
+        let yaml = parse_yaml(Path::new("map.yaml"), &yaml_text).unwrap();
+        assert_eq!(yaml.origin, [-1.25, 3.5, 0.0]);
+        assert_eq!(yaml.resolution, 0.1);
+        let pgm = parse_pgm(Path::new("map.pgm"), &pgm_bytes).unwrap();
+        assert_eq!((pgm.width, pgm.height), (4, 3));
+        for iy in 0..3 {
+            for ix in 0..4 {
+                // PGM row 0 is the top (largest y).
+                let v = pgm.pixels[(2 - iy) * 4 + ix];
+                assert_eq!(classify(&yaml, pgm.max_value, v), states[iy * 4 + ix]);
+            }
+        }
     }
 }

@@ -14,7 +14,12 @@ from mcap.reader import make_reader
 
 SCHEMAS = {
     "/robot/pose": "foxglove.PoseInFrame",
+    "/tf": "foxglove.FrameTransforms",
+    "/robot/footprint": "foxglove.SceneUpdate",
+    "/robot/trajectory": "foxglove.SceneUpdate",
+    "/scene": "foxglove.SceneUpdate",
     "/camera/depth": "foxglove.RawImage",
+    "/camera/calibration": "foxglove.CameraCalibration",
     "/map/grid": "foxglove.Grid",
     "/field/tensor": "foxglove.Grid",
     "/field/degenerate": "foxglove.SceneUpdate",
