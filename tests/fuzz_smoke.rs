@@ -66,6 +66,11 @@ fn fuzz_smoke_mcap() {
     smoke(Format::Mcap, 300);
 }
 
+#[test]
+fn fuzz_smoke_glb() {
+    smoke(Format::Glb, 300);
+}
+
 /// The mutator is deterministic: a case is reproduced from its index alone.
 #[test]
 fn fuzz_cases_are_reproducible() {

@@ -34,10 +34,12 @@ pub enum Format {
     Set,
     /// A run log, read as `replay` reads it.
     Mcap,
+    /// A binary glTF (GLB) mesh.
+    Glb,
 }
 
 impl Format {
-    pub const ALL: [Format; 8] = [
+    pub const ALL: [Format; 9] = [
         Format::Obj,
         Format::Ply,
         Format::Pgm,
@@ -46,6 +48,7 @@ impl Format {
         Format::ConfigToml,
         Format::Set,
         Format::Mcap,
+        Format::Glb,
     ];
 
     pub fn name(self) -> &'static str {
@@ -58,6 +61,7 @@ impl Format {
             Format::ConfigToml => "toml",
             Format::Set => "set",
             Format::Mcap => "mcap",
+            Format::Glb => "glb",
         }
     }
 
@@ -67,7 +71,7 @@ impl Format {
 
     /// Text formats get numeric-field replacement; binary ones integer overwrites.
     fn is_text(self) -> bool {
-        !matches!(self, Format::Mcap | Format::Ply | Format::Pgm)
+        !matches!(self, Format::Mcap | Format::Ply | Format::Pgm | Format::Glb)
     }
 }
 
@@ -161,6 +165,7 @@ const MAP_YAML: &str = "image: map.pgm\nresolution: 0.100000\norigin: [-1.000000
 pub fn seeds(format: Format) -> Vec<Vec<u8>> {
     let read = |n: &str| std::fs::read(data(n)).expect("fixture");
     match format {
+        Format::Glb => vec![box_glb()],
         Format::Obj => vec![
             room_obj().into_bytes(),
             b"# tensorscout spawn 0.5 0.25 1.5\no a\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nv 0 0 3\nv 1 0 3\nf 1 2 3 4\nf -4 -3 -2\nf 1 2 6 5\n".to_vec(),
@@ -357,6 +362,7 @@ fn load_scene(dir: &Path, name: &str, bytes: &[u8]) -> Outcome {
 pub fn run_case(format: Format, bytes: &[u8], dir: &Path) -> Outcome {
     let r = std::panic::catch_unwind(|| match format {
         Format::Obj => load_scene(dir, "case.obj", bytes),
+        Format::Glb => load_scene(dir, "case.glb", bytes),
         Format::Ply => load_scene(dir, "case.ply", bytes),
         Format::HouseExpo => load_scene(dir, "case.json", bytes),
         Format::Pgm => {
@@ -443,4 +449,63 @@ pub fn run_range(
         tally.add(i, run_case(format, &input, dir.path()));
     }
     tally
+}
+
+/// A GLB of a 4 × 3 × 2.5 m box room (y-up, as glTF writes it): the glTF fuzz seed. JSON chunk
+/// with one node, mesh, two accessors and buffer views; BIN chunk with positions and u16 indices.
+fn box_glb() -> Vec<u8> {
+    // z-up corners, written y-up as (x, z, −y).
+    let (x1, y1, z1) = (4.0f32, 3.0f32, 2.5f32);
+    let corners: Vec<[f32; 3]> = (0..8)
+        .map(|i| {
+            let x = if i & 1 == 0 { 0.0 } else { x1 };
+            let y = if i & 2 == 0 { 0.0 } else { y1 };
+            let z = if i & 4 == 0 { 0.0 } else { z1 };
+            [x, z, -y]
+        })
+        .collect();
+    let faces: [[u16; 4]; 6] = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
+    let mut bin = Vec::new();
+    for p in &corners {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let pos_len = bin.len();
+    for f in faces {
+        for i in [f[0], f[1], f[2], f[0], f[2], f[3]] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    let idx_len = bin.len() - pos_len;
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],"accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,-3],"max":[4,2.5,0]}},{{"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}},{{"buffer":0,"byteOffset":{pos_len},"byteLength":{idx_len}}}],"buffers":[{{"byteLength":{}}}]}}"#,
+        bin.len()
+    );
+    let mut json = json.into_bytes();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
 }
