@@ -1,10 +1,11 @@
-//! Prints the table of `scenes/floorplans/README.md`: per plan its size, floor area, rooms, doors,
+//! Prints the table of `scenes/floorplans/README.md`: per plan its size, floor area, rooms, openings,
 //! reachable floor and observable volume (default config).
 //!
 //! `cargo run --release --example floorplan_table` (uses the observable-volume cache).
 //!
-//! Rooms and doors are read from the mesh: a door is an opening with a lintel (a group of
-//! horizontal faces between 1.9 and 2.45 m, the lintels' undersides); rooms are the 4-connected
+//! Rooms and openings are read from the mesh: an opening is a door or passage with a lintel (a group of
+//! horizontal faces between 1.9 and 2.45 m, the lintels' undersides, over floor that obstacles in
+//! the robot's band leave open); rooms are the 4-connected
 //! regions of floor of at least 1 m² that obstacles in the robot's band and the door openings
 //! separate, not touching the plan's outside.
 
@@ -23,7 +24,9 @@ fn main() -> tensorscout::Result<()> {
         .filter(|p| p.extension().is_some_and(|e| e == "obj"))
         .collect();
     paths.sort();
-    println!("| plan | size (m) | floor (m²) | rooms | doors | reachable (m²) | observable (m³) |");
+    println!(
+        "| plan | size (m) | floor (m²) | rooms | openings | reachable (m²) | observable (m³) |"
+    );
     println!("|---|---|---:|---:|---:|---:|---:|");
     for path in paths {
         let s = scene::load(&path, &cfg.scene)?;
@@ -53,8 +56,18 @@ fn main() -> tensorscout::Result<()> {
                 parent[rx] = ry;
             }
         }
+        // A door is a group over floor the robot's band leaves open (a wardrobe's top or a window's
+        // lintel over its sill is not).
+        let over_open_floor = |t: usize| {
+            let v = s.mesh.triangles[t].map(|k| s.mesh.vertices[k as usize]);
+            let cx = (v[0].x + v[1].x + v[2].x) as f64 / 3.0;
+            let cy = (v[0].y + v[1].y + v[2].y) as f64 / 3.0;
+            grid.cell_of(nalgebra::Point2::new(cx, cy))
+                .is_some_and(|c| !gt.obstacle_column(grid.index(c)))
+        };
         let mut groups: Vec<usize> = lintel
             .iter()
+            .filter(|&&t| over_open_floor(t))
             .map(|&t| root(&mut parent, s.mesh.triangles[t][0] as usize))
             .collect();
         groups.sort_unstable();
