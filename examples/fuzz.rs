@@ -36,7 +36,11 @@ fn usage() -> ExitCode {
 /// Worker mode: run cases `start..start+count`, one line per case on stderr: `@i` before it and
 /// `i outcome` after it (stderr is unbuffered, so nothing is lost when the process dies).
 fn worker(format: Format, start: u64, count: u64, seed: u64) -> ExitCode {
-    std::panic::set_hook(Box::new(|_| {}));
+    // Panics are counted by the supervisor; `FUZZ_TRACE=1` keeps their messages and backtraces on
+    // stderr to debug one case (`fuzz --worker FORMAT CASE 1 SEED`).
+    if std::env::var_os("FUZZ_TRACE").is_none() {
+        std::panic::set_hook(Box::new(|_| {}));
+    }
     let seeds = seeds(format);
     let dir = tempfile::tempdir().expect("temp dir");
     let mut err = std::io::stderr().lock();

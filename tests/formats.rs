@@ -1,11 +1,15 @@
 //! Scene formats in and out: glTF/GLB written by hand and by Python `trimesh`, ROS maps with PNG
 //! images and block-style YAML, and the `--map-out` / `--trajectory` exports read back.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tensorscout"));
+    c.env("TENSORSCOUT_CACHE_DIR", common::cache_dir());
+    c
 }
 
 fn stderr(o: &Output) -> String {
@@ -258,9 +262,10 @@ fn glb_written_by_trimesh_loads_z_up() {
     assert_extent(&i, [8.0, 5.0, 2.5]);
     // Six boxes, twelve triangles each.
     assert_eq!(i["triangles"], 72);
-    // Two rooms of (3.85 × 4.8) m² each, joined by the door: 36.96 m² of floor plus the doorway.
-    let area = i["explorable_area_m2"].as_f64().unwrap();
-    assert!((area - 37.0).abs() < 2.5, "{area}");
+    // Two rooms of 3.85 × 4.8 m joined by the 1 m door; the robot's centre keeps the inflation
+    // radius (0.29 m) from the walls: 2 · (3.85 − 0.58) · (4.8 − 0.58) ≈ 27.6 m², plus the doorway.
+    let area = i["reachable_area_m2"].as_f64().unwrap();
+    assert!((area - 27.8).abs() < 1.5, "{area}");
 }
 
 #[test]
@@ -296,7 +301,8 @@ fn ros_map_with_png_image_and_block_yaml_loads_like_the_pgm() {
         "bounds_min",
         "bounds_max",
         "triangles",
-        "explorable_area_m2",
+        "reachable_area_m2",
+        "observable_volume_m3",
     ] {
         assert_eq!(a[k], b[k], "{k}");
     }

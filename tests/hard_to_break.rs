@@ -2,12 +2,16 @@
 //! hostile user would: closed and full outputs, lost files, special files, absurd values, signals,
 //! and misleading messages. Each test is named after the defect it guards against.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tensorscout"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tensorscout"));
+    c.env("TENSORSCOUT_CACHE_DIR", common::cache_dir());
+    c
 }
 
 fn run(args: &[&str]) -> Output {

@@ -18,6 +18,20 @@ use std::path::Path;
 /// covers (the file, then each external buffer in order).
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Vec<u8>)> {
     let err = |m: String| Error::scene(path, m);
+    // The gltf crate subtracts the 12-byte header from the declared GLB length unchecked (a panic
+    // in a build with overflow checks): refuse a length that cannot hold the header first.
+    if let Some(len) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    {
+        if len < 12 {
+            return Err(err(format!(
+                "GLB header declares a length of {len} bytes, less than the header itself"
+            )));
+        }
+    }
+    precheck_accessor_refs(bytes).map_err(err)?;
     let gltf =
         ::gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("cannot parse glTF: {e}")))?;
     if let Some(ext) = gltf.extensions_required().next() {
@@ -114,6 +128,30 @@ fn add_mesh(
         ) {
             continue; // points and lines carry no surface
         }
+        // The gltf crate's reader trusts the byte ranges it is given (a range past its buffer view
+        // panics inside it), so every accessor it will read is checked first.
+        let what =
+            |name: &str| format!("glTF mesh {} primitive {} {name}", m.index(), prim.index());
+        use ::gltf::accessor::{DataType, Dimensions};
+        if let Some(a) = prim.get(&::gltf::Semantic::Positions) {
+            if (a.data_type(), a.dimensions()) != (DataType::F32, Dimensions::Vec3) {
+                return Err(Error::scene(
+                    path,
+                    format!("{}: not 3 floats a vertex", what("POSITION")),
+                ));
+            }
+            check_accessor(path, &a, buffers, &what("POSITION"))?;
+        }
+        if let Some(a) = prim.indices() {
+            let int = matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32);
+            if !int || a.dimensions() != Dimensions::Scalar {
+                return Err(Error::scene(
+                    path,
+                    format!("{}: not unsigned integers", what("indices")),
+                ));
+            }
+            check_accessor(path, &a, buffers, &what("indices"))?;
+        }
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
         let Some(positions) = reader.read_positions() else {
             return Err(Error::scene(
@@ -168,6 +206,114 @@ fn add_mesh(
             tris.into_iter()
                 .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
         );
+    }
+    Ok(())
+}
+
+/// The gltf crate's validation indexes the accessor array with a primitive's POSITION index before
+/// checking it (a panic on a bad file): checks every accessor index a mesh primitive names
+/// (attributes, indices, morph targets) against the accessor count first. A document that does not
+/// parse as JSON is left to the crate, which reports it.
+fn precheck_accessor_refs(bytes: &[u8]) -> std::result::Result<(), String> {
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        let Some(len) = bytes.get(12..16) else {
+            return Ok(());
+        };
+        let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+        match bytes.get(20..20usize.saturating_add(len)) {
+            Some(j) => j,
+            None => return Ok(()),
+        }
+    } else {
+        bytes
+    };
+    // The first JSON value, whatever follows it (padding); bytes that are not UTF-8 become U+FFFD,
+    // since the crate skips them inside keys it ignores.
+    let text = String::from_utf8_lossy(json);
+    let Some(Ok(doc)) = serde_json::Deserializer::from_str(&text)
+        .into_iter::<serde_json::Value>()
+        .next()
+    else {
+        return Ok(());
+    };
+    let accessors = doc["accessors"].as_array().map_or(0, Vec::len);
+    let check = |v: &serde_json::Value, what: &str| match v.as_u64() {
+        Some(i) if i as usize >= accessors => Err(format!(
+            "{what} names accessor {i}, but the file has {accessors}"
+        )),
+        _ => Ok(()),
+    };
+    for (m, mesh) in doc["meshes"].as_array().into_iter().flatten().enumerate() {
+        for (p, prim) in mesh["primitives"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .enumerate()
+        {
+            let what = format!("glTF mesh {m} primitive {p}");
+            check(&prim["indices"], &what)?;
+            let maps = std::iter::once(&prim["attributes"])
+                .chain(prim["targets"].as_array().into_iter().flatten());
+            for map in maps {
+                for v in map.as_object().into_iter().flat_map(|o| o.values()) {
+                    check(v, &what)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Fails unless `a` lies wholly inside its buffer view and the view inside its buffer's bytes, with
+/// no sparse storage (not supported): what the reader needs to never index out of range.
+fn check_accessor(
+    path: &Path,
+    a: &::gltf::Accessor,
+    buffers: &[Vec<u8>],
+    what: &str,
+) -> Result<()> {
+    let bad = |why: String| Err(Error::scene(path, format!("{what}: {why}")));
+    if a.sparse().is_some() {
+        return bad("sparse accessors are not supported".into());
+    }
+    if a.count() == 0 {
+        return bad(format!("accessor {} has no elements", a.index()));
+    }
+    let Some(view) = a.view() else {
+        return bad("accessor has no buffer view".into());
+    };
+    let Some(data) = buffers.get(view.buffer().index()) else {
+        return bad(format!("buffer {} is missing", view.buffer().index()));
+    };
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|end| end > data.len()) {
+        return bad(format!(
+            "buffer view {} (offset {}, length {}) runs past its buffer's {} bytes",
+            view.index(),
+            view.offset(),
+            view.length(),
+            data.len()
+        ));
+    }
+    let size = a.size();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return bad(format!(
+            "byte stride {stride} is below the element size {size}"
+        ));
+    }
+    let need = (a.count() - 1)
+        .checked_mul(stride)
+        .and_then(|b| b.checked_add(size))
+        .and_then(|b| b.checked_add(a.offset()));
+    if need.is_none_or(|need| need > view.length()) {
+        return bad(format!(
+            "accessor {} ({} elements of {size} bytes from offset {}) runs past its buffer view's {} bytes",
+            a.index(),
+            a.count(),
+            a.offset(),
+            view.length()
+        ));
     }
     Ok(())
 }
