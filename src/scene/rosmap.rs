@@ -122,7 +122,9 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
                 path,
                 format!(
                     "key `{key}`: `{}` is not a number",
-                    scalar_text(v).unwrap_or_else(|| "(not a scalar)".into())
+                    // Escaped: a quoted YAML value may hold a line break, and errors are one line.
+                    scalar_text(v)
+                        .map_or_else(|| "(not a scalar)".into(), |t| t.escape_debug().to_string())
                 ),
             )
         })
@@ -217,7 +219,10 @@ pub fn parse_yaml(path: &Path, text: &str) -> Result<MapYaml> {
     if !matches!(mode.as_str(), "trinary" | "scale" | "raw") {
         return Err(Error::scene(
             path,
-            format!("key `mode`: expected trinary, scale or raw, got `{mode}`"),
+            format!(
+                "key `mode`: expected trinary, scale or raw, got `{}`",
+                mode.escape_debug()
+            ),
         ));
     }
     Ok(MapYaml {
