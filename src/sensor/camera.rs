@@ -81,16 +81,9 @@ impl DepthCamera {
         &self.cam_dirs
     }
 
-    /// Captures one frame from the robot at `pose`.
-    pub fn capture(&self, bvh: &MeshBvh, pose: Pose2) -> DepthFrame {
-        let mut frame = DepthFrame::default();
-        self.capture_into(bvh, pose, &mut frame);
-        frame
-    }
-
-    /// Captures into `frame`, reusing its buffers. Rays are cast in parallel; each ray's result depends
-    /// only on the ray, so the frame is the same whatever the thread count.
-    pub fn capture_into(&self, bvh: &MeshBvh, pose: Pose2, frame: &mut DepthFrame) {
+    /// Sets `frame`'s pose, size and range and sizes its buffers for a frame taken at `pose`; returns
+    /// the optical centre and the sine and cosine of the heading.
+    fn start_frame(&self, pose: Pose2, frame: &mut DepthFrame) -> (Point3<f32>, f32, f32) {
         let (sin, cos) = (pose.yaw.sin() as f32, pose.yaw.cos() as f32);
         let origin = Point3::new(pose.x as f32, pose.y as f32, self.mount_height);
         frame.origin = origin;
@@ -101,6 +94,20 @@ impl DepthCamera {
         let n = self.rays();
         frame.dirs.resize(n, Vector3::zeros());
         frame.range.resize(n, 0.0);
+        (origin, sin, cos)
+    }
+
+    /// Captures one frame from the robot at `pose`.
+    pub fn capture(&self, bvh: &MeshBvh, pose: Pose2) -> DepthFrame {
+        let mut frame = DepthFrame::default();
+        self.capture_into(bvh, pose, &mut frame);
+        frame
+    }
+
+    /// Captures into `frame`, reusing its buffers. Rays are cast in parallel; each ray's result depends
+    /// only on the ray, so the frame is the same whatever the thread count.
+    pub fn capture_into(&self, bvh: &MeshBvh, pose: Pose2, frame: &mut DepthFrame) {
+        let (origin, sin, cos) = self.start_frame(pose, frame);
         let (min_range, max_range) = (self.min_range, self.max_range);
         frame
             .dirs
@@ -129,16 +136,7 @@ impl DepthCamera {
     /// [`DepthCamera::render`] into `frame`, reusing its buffers. The frame does not depend on the
     /// thread count.
     pub fn render_into(&self, raster: &MeshRaster, pose: Pose2, frame: &mut DepthFrame) {
-        let (sin, cos) = (pose.yaw.sin() as f32, pose.yaw.cos() as f32);
-        let origin = Point3::new(pose.x as f32, pose.y as f32, self.mount_height);
-        frame.origin = origin;
-        frame.axis = Vector3::new(cos, sin, 0.0);
-        frame.width = self.width;
-        frame.height = self.height;
-        frame.max_range = self.max_range;
-        let n = self.rays();
-        frame.dirs.resize(n, Vector3::zeros());
-        frame.range.resize(n, 0.0);
+        let (origin, sin, cos) = self.start_frame(pose, frame);
         frame
             .dirs
             .par_iter_mut()
