@@ -71,6 +71,16 @@ impl DepthCamera {
         }
     }
 
+    /// Height of the optical centre above the floor, metres.
+    pub fn mount_height(&self) -> f32 {
+        self.mount_height
+    }
+
+    /// Nearest and farthest depth, metres (a nearer hit gives no reading).
+    pub fn range_limits(&self) -> (f32, f32) {
+        (self.min_range, self.max_range)
+    }
+
     /// Number of rays per frame.
     pub fn rays(&self) -> usize {
         self.width * self.height

@@ -42,14 +42,11 @@ pub struct ObservableSet {
     voxel_volume: f64,
 }
 
-/// The sampling parameters and the sensor model, from the config.
+/// The pose sampling, from the config (the sensor model is the `DepthCamera`'s).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObservableParams {
     pub spacing_m: f64,
     pub yaws: usize,
-    pub mount_height_m: f32,
-    pub min_range_m: f32,
-    pub max_range_m: f32,
 }
 
 impl ObservableParams {
@@ -57,10 +54,6 @@ impl ObservableParams {
         ObservableParams {
             spacing_m: cfg.metrics.observable_spacing_m,
             yaws: cfg.metrics.observable_yaws,
-            // Cast as `DepthCamera` does, so rays start and end exactly where the map's do.
-            mount_height_m: cfg.camera.mount_height_m as f32,
-            min_range_m: cfg.camera.min_range_m as f32,
-            max_range_m: cfg.camera.max_range_m as f32,
         }
     }
 }
@@ -93,7 +86,7 @@ impl ObservableSet {
             lists,
             bvh,
             band: (z_lo, z_hi),
-            p,
+            range: camera.range_limits(),
         };
         let bits = positions
             .par_iter()
@@ -101,7 +94,7 @@ impl ObservableSet {
                 || (vec![0u64; words], Vec::new()),
                 |(mut bits, mut buf), &cell| {
                     let c = grid.center(grid.cell(cell));
-                    let origin = Point3::new(c.x as f32, c.y as f32, p.mount_height_m);
+                    let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
                     for &(sin, cos) in &yaws {
                         for d in cam_dirs {
                             let dir =
@@ -193,7 +186,8 @@ struct VoxelCaster<'a> {
     bvh: &'a MeshBvh,
     /// The height band `[z_lo, z_hi)`, metres.
     band: (f64, f64),
-    p: &'a ObservableParams,
+    /// The camera's nearest and farthest depth, metres.
+    range: (f32, f32),
 }
 
 impl VoxelCaster<'_> {
@@ -210,7 +204,7 @@ impl VoxelCaster<'_> {
         buf: &'b mut Vec<usize>,
     ) -> &'b [usize] {
         buf.clear();
-        let p = self.p;
+        let (min_range, max_range) = self.range;
         let (oz, dz) = (origin.z as f64, dir.z as f64);
         let leave = if dz > 0.0 {
             (self.band.1 - oz) / dz
@@ -222,15 +216,13 @@ impl VoxelCaster<'_> {
         if leave < 0.0 {
             return buf;
         }
-        let cut = (leave + 1e-6)
-            .max(p.min_range_m as f64)
-            .min(p.max_range_m as f64);
+        let cut = (leave + 1e-6).max(min_range as f64).min(max_range as f64);
         let (o, d) = (origin.cast::<f64>(), dir.cast::<f64>());
         let mut best = f32::INFINITY;
         traverse_while(self.grid, o, d, cut, |v, t_in, t_out| {
             if self.gt.occupied(v) {
                 let tris = self.lists.of(v);
-                if let Some(t) = self.bvh.cast_among(origin, dir, tris, p.max_range_m) {
+                if let Some(t) = self.bvh.cast_among(origin, dir, tris, max_range) {
                     best = best.min(t);
                 }
             }
@@ -245,7 +237,7 @@ impl VoxelCaster<'_> {
             (best as f64) > t_out
         });
         if best.is_finite() {
-            if best < p.min_range_m {
+            if best < min_range {
                 buf.clear();
             } else if let Some(v) = self.grid.voxel_of(o + d * best as f64) {
                 buf.push(v);
@@ -569,7 +561,6 @@ mod tests {
         let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
         let bvh = MeshBvh::new(&mesh).unwrap();
         let camera = DepthCamera::new(&cfg.camera);
-        let p = ObservableParams::from_config(&cfg);
         let band = gt.band_layers();
         let caster = VoxelCaster {
             grid: &gt.grid,
@@ -580,7 +571,7 @@ mod tests {
                 band.start as f64 * gt.grid.res,
                 band.end as f64 * gt.grid.res,
             ),
-            p: &p,
+            range: camera.range_limits(),
         };
         let in_band = |v: usize| band.contains(&gt.grid.voxel_parts(v).1);
         let (mut total, mut differ) = (0usize, 0usize);
