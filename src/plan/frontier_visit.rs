@@ -8,7 +8,7 @@
 
 use super::search::DistanceField;
 use crate::grid::{Cell, GridSpec};
-use crate::map::{FrontierSegment, Map};
+use crate::map::Map;
 use nalgebra::Point2;
 
 /// Failed attempts after which a frontier is given up.
@@ -180,12 +180,12 @@ pub struct DistantView {
     pub aim: usize,
 }
 
-/// The cheapest [`DistantView`] over the frontier cells that `df` does not reach and that were not
-/// given up; ties go to the lower viewpoint, then aim index.
+/// The cheapest [`DistantView`] over the frontier cells (flat indices, per segment) that `df` does not
+/// reach and that were not given up; ties go to the lower viewpoint, then aim index.
 pub fn distant_view(
     map: &Map,
     df: &DistanceField,
-    segments: &[FrontierSegment],
+    segments: &[Vec<usize>],
     visits: &FrontierVisits,
     view_m: f64,
 ) -> Option<DistantView> {
@@ -193,8 +193,8 @@ pub fn distant_view(
     let reach = (2.0 * view_m / grid.res).ceil() as i32;
     let mut best: Option<(f32, usize, usize, usize)> = None;
     for (k, seg) in segments.iter().enumerate() {
-        for c in &seg.cells {
-            let aim = grid.index(*c);
+        for &aim in seg {
+            let c = &grid.cell(aim);
             if visits.is_unobservable(aim) || df.cost_to(aim).is_some() {
                 continue;
             }

@@ -89,7 +89,11 @@ impl Planner for Greedy {
             let Some((_, near_goal, k)) = best_near else {
                 // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
                 // pass, each once, before calling the map done.
-                let Some(view) = distant_view(map, &df, &segments, &self.visits, view_m) else {
+                let cells: Vec<Vec<usize>> = segments
+                    .iter()
+                    .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
+                    .collect();
+                let Some(view) = distant_view(map, &df, &cells, &self.visits, view_m) else {
                     return Ok(Action::Complete);
                 };
                 self.visit = Some(Visit {

@@ -274,6 +274,9 @@ pub fn run_planner(
                     Ok(Action::Complete) => {
                         termination = Termination::Complete;
                     }
+                    Ok(Action::Stuck) => {
+                        termination = Termination::Stuck;
+                    }
                     Ok(a) => {
                         observer.on_plan(time_s, &a, &map, &planner.tour());
                         action = a;
@@ -288,7 +291,10 @@ pub fn run_planner(
             }
         }
         let t4 = Instant::now();
-        if matches!(termination, Termination::Complete | Termination::Error) {
+        if matches!(
+            termination,
+            Termination::Complete | Termination::Stuck | Termination::Error
+        ) {
             record(&mut times, [t0, t1, t2, t3, t4, t4]);
             break;
         }
