@@ -222,6 +222,7 @@ pub struct ThpConfig {
     pub advection: bool,
     pub advect_length_m: f64,
     pub drift_m: f64,
+    pub finish_group_first: bool,
     pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }

@@ -464,15 +464,27 @@ impl Thp {
             })
             .collect();
         let grid = *ctx.map.grid();
-        let start = (0..nodes.len())
-            .min_by(|&a, &b| {
-                let (fa, fb) = (
-                    anchor_cost(&grid, df, &nodes[a], fronts),
-                    anchor_cost(&grid, df, &nodes[b], fronts),
-                );
-                fa.total_cmp(&fb).then(a.cmp(&b))
-            })
-            .expect("at least one node");
+        // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
+        // while Alg. 2 scans a group until it is empty. Read together, a re-solve that new anchors
+        // trigger in the middle of a group keeps that group as the start (`thp.finish_group_first`),
+        // so the robot does not leave a half-scanned group for a nearer anchor and come back to it:
+        // such returns were most of THP's extra path against GREEDY on real plans.
+        let current = self
+            .goal
+            .as_ref()
+            .filter(|_| self.cfg.finish_group_first)
+            .and_then(|g| nodes.iter().position(|n| n.key == g.node));
+        let start = current.unwrap_or_else(|| {
+            (0..nodes.len())
+                .min_by(|&a, &b| {
+                    let (fa, fb) = (
+                        anchor_cost(&grid, df, &nodes[a], fronts),
+                        anchor_cost(&grid, df, &nodes[b], fronts),
+                    );
+                    fa.total_cmp(&fb).then(a.cmp(&b))
+                })
+                .expect("at least one node")
+        });
         let m = self.cost_matrix(ctx, costs, &access);
         let tour = tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes);
         self.tour = tour.order.iter().map(|&i| nodes[i].key).collect();
