@@ -14,6 +14,16 @@
 //! is inside the height band, so it is cast and traversed up to where it leaves the band; that gives
 //! the same band voxels as a full-length ray (a ray leaves a horizontal slab once).
 //!
+//! **Walking the rays.** The reference is one ray at a time (`VoxelCaster::observe`): a voxel walk
+//! that tests the triangles of each occupied voxel it enters. The set is computed faster, with the
+//! same result, by sweeping each pixel column's rays together through the floor cells they share
+//! (`VoxelCaster::sweep_column`): a run of rays that meets no occupied voxel in a cell marks one span
+//! of layers there, and single rays are walked only where they meet occupied voxels. A column where
+//! some distance falls within 1e-9 m of a voxel boundary (where rounding could decide the map's walk)
+//! is walked ray by ray instead (about 0.3 % of the columns on the shipped scenes). A test checks the
+//! two ways bit for bit; cameras of more than 64 rows or grids of more than 64 layers use the
+//! reference walk only.
+//!
 //! **Cost and cache.** This costs seconds, so [`ObservableCache`] keeps one file per scene and the
 //! config keys the set depends on, written atomically and checked on read (length, key and
 //! checksum): a damaged file is recomputed and reported, never trusted.
@@ -353,7 +363,7 @@ impl VoxelCaster<'_> {
     /// one span per cell, see [`VoxelCaster::sweep_column`]).
     fn sweep_applies(&self, camera: &DepthCamera) -> bool {
         let (w, h) = camera.image_size();
-        if self.grid.nz > 64 || h > 64 || h < 2 {
+        if self.grid.nz > 64 || !(2..=64).contains(&h) {
             return false;
         }
         let dirs = camera.camera_dirs();
@@ -721,7 +731,10 @@ impl VoxelCaster<'_> {
             }
             // One ray through this cell's layers, voxel by voxel, with observe's rule for hits.
             // Returns whether the ray stops here.
-            let walk = |k: usize, rays: &mut [ColumnRay], marks: &mut Vec<(usize, u64)>| {
+            let walk = |k: usize,
+                        rays: &mut [ColumnRay],
+                        here: &mut u64,
+                        marks: &mut Vec<(usize, u64)>| {
                 let ray = rays[k];
                 let ends = enders >> k & 1 == 1;
                 let t0 = t_in(&ray);
@@ -731,7 +744,7 @@ impl VoxelCaster<'_> {
                 let up = ray.d[2] > 0.0;
                 if ray.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
                     // No occupied voxel on the way through this cell: all its layers, no hit.
-                    marks.push((step.cell, span(l0, l1)));
+                    *here |= span(l0, l1);
                     return Ok(ends);
                 }
                 let mut best = ray.best;
@@ -777,9 +790,7 @@ impl VoxelCaster<'_> {
                     }
                     l = if up { l + 1 } else { l - 1 };
                 }
-                if mask != 0 {
-                    marks.push((step.cell, mask));
-                }
+                *here |= mask;
                 rays[k].best = best;
                 let done = stopped || ends;
                 if done && best.is_finite() {
@@ -789,19 +800,27 @@ impl VoxelCaster<'_> {
                         return Err(Ambiguous);
                     }
                     let p = Point3::new(o[0], o[1], o[2]) + ray.dir.cast::<f64>() * best;
-                    if let Some(v) = grid.voxel_of(p) {
-                        let (c, iz) = grid.voxel_parts(v);
-                        marks.push((c, 1 << iz));
+                    // `grid.voxel_of(p)`, its floors taken without a libm call (the same values).
+                    let ix = floor_i64((p.x - grid.origin_x) / res);
+                    let iy = floor_i64((p.y - grid.origin_y) / res);
+                    let iz = floor_i64(p.z / res);
+                    if (0..dims[0]).contains(&ix)
+                        && (0..dims[1]).contains(&iy)
+                        && (0..nz as i64).contains(&iz)
+                    {
+                        marks.push(((iy * dims[0] + ix) as usize, 1 << iz));
                     }
                 }
                 Ok(done)
             };
             let mut stopped = 0u64;
+            // The layers marked in this cell.
+            let mut here = 0u64;
             let mut m = single;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
-                if walk(k, rays, marks)? {
+                if walk(k, rays, &mut here, marks)? {
                     stopped |= 1 << k;
                 }
             }
@@ -835,13 +854,13 @@ impl VoxelCaster<'_> {
                 let (la, lb) = (layer(z_min, c_min)?, layer(z_max, c_max)?);
                 let cover = span(la, lb);
                 if cover & occ & occ_mask == 0 {
-                    marks.push((step.cell, cover));
+                    here |= cover;
                 } else {
                     let mut k_m = run;
                     while k_m != 0 {
                         let k = k_m.trailing_zeros() as usize;
                         k_m &= k_m - 1;
-                        if walk(k, rays, marks)? {
+                        if walk(k, rays, &mut here, marks)? {
                             stopped |= 1 << k;
                         } else if rays[k].best.is_finite() {
                             runs &= !(1 << k);
@@ -849,6 +868,9 @@ impl VoxelCaster<'_> {
                         }
                     }
                 }
+            }
+            if here != 0 {
+                marks.push((step.cell, here));
             }
             runs &= !(enders | stopped);
             single &= !(enders | stopped);
