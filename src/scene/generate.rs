@@ -1027,7 +1027,9 @@ mod tests {
             "scene area 10 m² is outside [20, 10000] m²"
         );
         assert_eq!(
-            generate(Style::Office, 1, 10_001.0).unwrap_err().to_string(),
+            generate(Style::Office, 1, 10_001.0)
+                .unwrap_err()
+                .to_string(),
             "scene area 10001 m² is outside [20, 10000] m²"
         );
         assert_eq!(
