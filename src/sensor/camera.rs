@@ -81,6 +81,11 @@ impl DepthCamera {
         (self.min_range, self.max_range)
     }
 
+    /// Image size in pixels: (width, height).
+    pub fn image_size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
     /// Number of rays per frame.
     pub fn rays(&self) -> usize {
         self.width * self.height
