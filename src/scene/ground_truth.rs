@@ -6,13 +6,8 @@
 //! column's square, connected to the spawn under the searches' move rule (8-connected, a diagonal
 //! step only when both orthogonal cells beside it are open). Real plans have doors narrower than the
 //! robot and openings onto the outside: what lies beyond those is not counted against any planner.
-//! What the camera can observe is computed above the sensor, in `sim::observable`, from the
-//! **drivable region**: the same construction with the disc of the motion guard's clearance
-//! (`robot.radius_m` + `sim::motion::GUARD_MARGIN_M`, capped at the inflation margin) instead of the
-//! inflation radius. A planner may route the robot through a gap narrower than its own inflation
-//! (THP's escape paths keep only the robot radius from known obstacles) and the guard lets it pass
-//! where that smaller disc fits, so the observable set, the ceiling of completeness, is sampled
-//! from there; the reachable region is a subset of it.
+//! What the camera can observe from that region is computed above the sensor, in
+//! `sim::observable`.
 //!
 //! Voxelisation is an exact triangle–box separating-axis test in grid units, with vertices snapped to
 //! 1e-4 of a voxel and voxels treated as half-open `[i, i+1)`: a wall face lying exactly on a voxel
@@ -50,8 +45,6 @@ pub struct GroundTruth {
     inflation_m: f64,
     reachable: Vec<bool>,
     reachable_cells: usize,
-    /// Where the motion guard lets the robot go (see the module doc); holds `reachable`.
-    drivable: Vec<bool>,
     triangles: VoxelTriangles,
     band: std::ops::Range<usize>,
     surface: Vec<u32>,
@@ -159,29 +152,6 @@ impl GroundTruth {
         );
         let reachable = flood_fill_moves(&grid, &fits, start);
         let reachable_cells = reachable.iter().filter(|&&r| r).count();
-        let guard_m =
-            cfg.robot.radius_m + crate::sim::motion::GUARD_MARGIN_M.min(cfg.map.inflation_margin_m);
-        let drivable = if guard_m < inflation_m {
-            let fits = disc_fits(
-                mesh,
-                &grid,
-                &triangles,
-                &obstacle,
-                &fit_clearance,
-                robot_layers.clone(),
-                body,
-                guard_m,
-            );
-            let mut drivable = flood_fill_moves(&grid, &fits, start);
-            // A start inside the inflation band reaches nothing more here, but is itself reachable.
-            drivable
-                .iter_mut()
-                .zip(&reachable)
-                .for_each(|(d, &r)| *d |= r);
-            drivable
-        } else {
-            reachable.clone()
-        };
         let band = grid.layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
         let surface: Vec<u32> = band
             .clone()
@@ -201,7 +171,6 @@ impl GroundTruth {
             inflation_m,
             reachable,
             reachable_cells,
-            drivable,
             triangles,
             band,
             surface,
@@ -234,13 +203,6 @@ impl GroundTruth {
     /// The reachable region, one flag per cell.
     pub fn reachable_mask(&self) -> &[bool] {
         &self.reachable
-    }
-
-    /// Where the motion guard lets the robot go, one flag per cell: the reachable region and the
-    /// cells beyond gaps too narrow for the inflation radius but not for the guard's clearance (see
-    /// the module doc). The observable set is sampled from here.
-    pub fn drivable_mask(&self) -> &[bool] {
-        &self.drivable
     }
 
     pub fn reachable_cells(&self) -> usize {

@@ -74,7 +74,7 @@ const ESCAPE_SPEED_FRACTION: f64 = 0.2;
 /// never farther than a seen surface), so this only covers surface between hits and path following
 /// between cell centres, which comes a little closer to obstacles than the centres themselves (the
 /// inflation radius); capped at `map.inflation_margin_m`, or paths through doors would get refused.
-pub const GUARD_MARGIN_M: f64 = 0.02;
+const GUARD_MARGIN_M: f64 = 0.02;
 /// Speed never drops below this fraction near obstacles, so narrow doors are still passed.
 const MIN_SPEED_FRACTION: f64 = 0.3;
 /// Look-ahead when tracking the path tightly past a corner: just over one diagonal cell step, metres.
