@@ -466,9 +466,10 @@ impl Thp {
         let grid = *ctx.map.grid();
         // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
         // while Alg. 2 scans a group until it is empty. Read together, a re-solve that new anchors
-        // trigger in the middle of a group keeps that group as the start (`thp.finish_group_first`),
-        // so the robot does not leave a half-scanned group for a nearer anchor and come back to it:
-        // such returns were most of THP's extra path against GREEDY on real plans.
+        // trigger in the middle of a group may keep that group as the start
+        // (`thp.finish_group_first`), so the robot does not leave a half-scanned group for a nearer
+        // anchor and come back to it. Off by default: on real plans it removed those returns but
+        // lengthened the whole path (the nearest anchor's group is usually the cheaper detour).
         let current = self
             .goal
             .as_ref()
