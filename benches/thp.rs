@@ -16,7 +16,7 @@ use tensorscout::map::Map;
 use tensorscout::plan::search::Search;
 use tensorscout::plan::thp::Thp;
 use tensorscout::plan::{Action, PlanContext, Planner};
-use tensorscout::sim::{self, World};
+use tensorscout::sim::{self, Simulation, World};
 use tensorscout::{scene, Config, Pose2, Result};
 
 /// Every this many planning steps of the recorded run, one is saved and timed.
@@ -120,7 +120,8 @@ fn thp_plan(c: &mut Criterion) {
         plans: 0,
         saved: Vec::new(),
     };
-    let out = sim::run_planner(&scene, world, &cfg, &mut recorder, &mut sim::NoObserver).unwrap();
+    let out = Simulation::with_planner(&scene, world, &cfg, Box::new(&mut recorder))
+        .run_to_end(&mut sim::NoObserver);
     eprintln!(
         "recorded run: {:?}, completeness {:.3}, {} planning steps, {} saved",
         out.result.termination,

@@ -252,6 +252,38 @@ pub trait Planner {
     }
 }
 
+/// A planner borrowed from its owner is a planner too (benches keep the planner they wrap, to read
+/// what it recorded after the run).
+impl<P: Planner + ?Sized> Planner for &mut P {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        (**self).plan(ctx)
+    }
+    fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        (**self).is_outdated(ctx, action)
+    }
+    fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
+        (**self).action_finished(ctx, reached)
+    }
+    fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
+        (**self).update_field(map, pose, time_s)
+    }
+    fn field(&self) -> Option<&TensorField> {
+        (**self).field()
+    }
+    fn tour(&self) -> Vec<Point2<f64>> {
+        (**self).tour()
+    }
+    fn take_tsp_ms(&mut self) -> Option<f64> {
+        (**self).take_tsp_ms()
+    }
+    fn stats(&self) -> BTreeMap<String, f64> {
+        (**self).stats()
+    }
+}
+
 /// The planners a run can use.
 #[derive(
     Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum, serde::Serialize,
