@@ -59,7 +59,7 @@
 //!   instead once they offer no gain.
 
 use super::greedy::Greedy;
-use super::{Action, PlanContext, Planner};
+use super::{Action, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
 use crate::config::{Config, FieldConfig, TensorConfig};
 use crate::field::advect::{trace, StopConditions, StopReason};
 use crate::field::{
@@ -764,7 +764,7 @@ impl Tensor {
         self.stats.fallback_plans += 1;
         self.route_target = None;
         self.advecting = false;
-        let a = self.greedy.plan(ctx)?;
+        let a = self.greedy.next_action(ctx)?;
         self.current = if a == Action::Complete {
             Current::None
         } else {
@@ -1115,12 +1115,9 @@ fn path_cells(grid: &GridSpec, path: &[Point2<f64>]) -> Vec<usize> {
     out
 }
 
-impl Planner for Tensor {
-    fn name(&self) -> &'static str {
-        "tensor"
-    }
-
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+impl Tensor {
+    /// The next action (see [`Planner::plan`]).
+    fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.action_start = ctx.pose.position();
         if self.field.is_none() {
             return Ok(Action::LookAround);
@@ -1183,6 +1180,21 @@ impl Planner for Tensor {
             return Ok(a);
         }
         self.advect(ctx, 0)
+    }
+}
+
+impl Planner for Tensor {
+    fn name(&self) -> &'static str {
+        "tensor"
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        let action = self.next_action(ctx)?;
+        let report = PlanReport {
+            tour: self.route_target.into_iter().collect(),
+            tsp_ms: None,
+        };
+        Ok(Plan { action, report })
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
@@ -1269,6 +1281,16 @@ impl Planner for Tensor {
         }
     }
 
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        Some(self)
+    }
+
+    fn stats(&self) -> BTreeMap<String, f64> {
+        self.stats_map()
+    }
+}
+
+impl FieldPlanner for Tensor {
     fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
         let field = self
             .field
@@ -1295,12 +1317,11 @@ impl Planner for Tensor {
     fn field(&self) -> Option<&TensorField> {
         self.field.as_ref()
     }
+}
 
-    fn tour(&self) -> Vec<Point2<f64>> {
-        self.route_target.into_iter().collect()
-    }
-
-    fn stats(&self) -> BTreeMap<String, f64> {
+impl Tensor {
+    /// The run statistics under their `planner_stats` keys (see [`Planner::stats`]).
+    fn stats_map(&self) -> BTreeMap<String, f64> {
         let s = &self.stats;
         [
             ("key_frames", s.key_frames),

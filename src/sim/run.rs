@@ -11,7 +11,7 @@ use crate::config::{Config, DepthRenderer, SpawnMode};
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
-use crate::plan::{Action, PlanContext, Planner, PlannerKind};
+use crate::plan::{Action, Plan, PlanContext, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
@@ -392,12 +392,11 @@ impl<'a> Simulation<'a> {
             .clear_footprint(self.robot.pose.x, self.robot.pose.y, cfg.robot.radius_m);
         self.clock.lap(Stage::Map);
         // Field: the tensor-field planners update theirs here; GREEDY and NBV-TSP have none.
-        if let Err(e) = self
-            .planner
-            .update_field(&self.map, self.robot.pose, time_s)
-        {
-            self.clock.end();
-            return self.fail(e);
+        if let Some(fp) = self.planner.field_planner() {
+            if let Err(e) = fp.update_field(&self.map, self.robot.pose, time_s) {
+                self.clock.end();
+                return self.fail(e);
+            }
         }
         self.clock.lap(Stage::Field);
         // Plan.
@@ -477,7 +476,7 @@ impl<'a> Simulation<'a> {
             explored_volume_m3: volume,
             collisions: self.collisions,
             replans: self.replans,
-            field: self.planner.field(),
+            field: self.planner.field_planner().and_then(|fp| fp.field()),
             stage_ms: self.clock.step_ms(),
         });
         if self.step - self.last_gain_step >= self.stuck_steps {
@@ -507,14 +506,14 @@ impl<'a> Simulation<'a> {
             return Ok(true);
         }
         self.replans += 1;
-        let planned = self.planner.plan(&mut ctx);
-        if let Some(ms) = self.planner.take_tsp_ms() {
+        let Plan { action, report } = self.planner.plan(&mut ctx)?;
+        if let Some(ms) = report.tsp_ms {
             self.clock.record_tsp(ms);
         }
-        match planned? {
+        match action {
             Action::Complete => Ok(false),
             a => {
-                observer.on_plan(time_s, &a, &self.map, &self.planner.tour());
+                observer.on_plan(time_s, &a, &self.map, &report.tour);
                 self.action = a;
                 self.motion.start(&self.action);
                 self.need_plan = false;
@@ -611,14 +610,14 @@ mod tests {
         fn name(&self) -> &'static str {
             "scripted"
         }
-        fn plan(&mut self, _ctx: &mut PlanContext) -> Result<Action> {
+        fn plan(&mut self, _ctx: &mut PlanContext) -> Result<Plan> {
             self.plans += 1;
             if self.plans <= self.looks {
-                Ok(Action::LookAround)
+                Ok(Action::LookAround.into())
             } else if self.fail {
                 Err(crate::Error::Runtime("scripted failure".into()))
             } else {
-                Ok(Action::Complete)
+                Ok(Action::Complete.into())
             }
         }
         fn is_outdated(&mut self, _ctx: &PlanContext, _action: &Action) -> bool {
