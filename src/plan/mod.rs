@@ -4,11 +4,11 @@
 //! a [`PlanContext`] and answers with an [`Action`]; the simulator's one motion executor carries it
 //! out, so that comparisons between planners are fair.
 
-pub mod frontier_visit;
-pub mod greedy;
-pub mod nbv;
+pub(crate) mod frontier_visit;
+pub(crate) mod greedy;
+pub(crate) mod nbv;
 pub mod search;
-pub mod tensor;
+pub(crate) mod tensor;
 pub mod thp;
 pub mod tsp;
 

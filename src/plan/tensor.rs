@@ -816,7 +816,7 @@ impl Tensor {
     /// executor's guard sees them), when the guard pins the robot and a look did not help.
     fn step_clear(&mut self, ctx: &PlanContext) -> Option<Action> {
         let robot = ctx.pose.position();
-        let h = crate::sim::motion::nearest_obstacle(ctx.map, robot, 1.0)?;
+        let h = ctx.map.nearest_hazard(robot, 1.0)?;
         let d = (robot - h).norm();
         if d < 1e-6 {
             return None;

@@ -1,11 +1,11 @@
 //! The simulator: robot, motion executor, the step loop and its metrics.
 
-pub mod clock;
-pub mod metrics;
-pub mod motion;
+pub(crate) mod clock;
+pub(crate) mod metrics;
+pub(crate) mod motion;
 pub mod observable;
-pub mod robot;
-pub mod run;
+pub(crate) mod robot;
+pub(crate) mod run;
 
 pub use clock::{Stage, StageClock};
 pub use metrics::{RunResult, Termination};
