@@ -178,6 +178,15 @@ impl GridSpec {
     }
 }
 
+/// What is known about one floor cell: of the robot's map, or of a ROS map file (where `Obstacle` is
+/// map_server's "occupied").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellState {
+    Unknown,
+    Free,
+    Obstacle,
+}
+
 /// Exact squared Euclidean distance transform (Felzenszwalb–Huttenlocher), in cells², from every
 /// cell to the nearest `true` cell; `f64::INFINITY` where there is none.
 pub fn distance_transform(sites: &[bool], nx: usize, ny: usize) -> Vec<f64> {

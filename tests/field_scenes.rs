@@ -9,6 +9,7 @@ use tensorscout::scene::{self, GroundTruth};
 use tensorscout::Config;
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn field_on_shipped_scenes_matches_reference_and_has_few_clear_points() {
     let cfg = Config::default();
     for path in shipped_scenes() {

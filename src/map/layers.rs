@@ -9,13 +9,7 @@ use std::collections::VecDeque;
 use std::f64::consts::SQRT_2;
 use std::ops::Range;
 
-/// What the robot knows about one floor cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellState {
-    Unknown,
-    Free,
-    Obstacle,
-}
+pub use crate::grid::CellState;
 
 /// A connected piece of frontier, short enough to be one goal.
 #[derive(Clone, Debug, PartialEq)]

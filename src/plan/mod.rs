@@ -194,6 +194,11 @@ pub fn escape_path(
     Some(path.cells.iter().map(|c| grid.center(*c)).collect())
 }
 
+/// Length of a polyline, metres.
+pub fn path_length(line: &[Point2<f64>]) -> f64 {
+    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
 /// What the robot should do next.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Action {

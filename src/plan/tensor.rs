@@ -59,7 +59,7 @@
 //!   instead once they offer no gain.
 
 use super::greedy::Greedy;
-use super::{Action, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
+use super::{path_length, Action, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
 use crate::config::{Config, FieldConfig, TensorConfig};
 use crate::field::advect::{trace, StopConditions, StopReason};
 use crate::field::{
@@ -1095,10 +1095,6 @@ fn walk(ctx: &PlanContext, from: Point2<f64>, dir: Vector2<f64>, max_m: f64) -> 
         s += step;
     }
     best
-}
-
-fn path_length(line: &[Point2<f64>]) -> f64 {
-    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
 
 /// Cells a path passes through after its first point (for the blockage check), without repeats.

@@ -33,7 +33,7 @@
 use super::frontier_visit::{blind_zone_viewpoint, FrontierVisits, Visit};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
-use super::{Action, Count, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
+use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
 use crate::config::{Config, FieldConfig, Grouping, ThpConfig};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
@@ -1024,11 +1024,6 @@ fn nearest_on_path(path: &[Point2<f64>], p: Point2<f64>, from: usize) -> (usize,
         .map(|(k, q)| (k, (q - p).norm()))
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
         .unwrap_or((from, f64::INFINITY))
-}
-
-/// Length of a polyline, metres.
-fn path_length(line: &[Point2<f64>]) -> f64 {
-    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
 
 /// The prefix of an advected pathline the robot may follow: it stops before the first impassable

@@ -651,7 +651,7 @@ mod tests {
     /// after the end changes nothing and reports the same ending.
     #[test]
     fn the_budget_ends_the_run_at_its_step() {
-        let s = scene(furnished_room(6.0));
+        let s = scene(furnished_room(4.0));
         let mut cfg = Config::default();
         cfg.sim.budget_s = 3.0;
         cfg.sim.stuck_timeout_s = 1000.0;
@@ -675,7 +675,7 @@ mod tests {
     /// motion of that step.
     #[test]
     fn a_planner_that_is_done_completes_the_run() {
-        let s = scene(furnished_room(6.0));
+        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
         let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(2, false);
@@ -699,7 +699,7 @@ mod tests {
     /// failure during a run leaves.
     #[test]
     fn a_planner_error_ends_the_run_with_its_message() {
-        let s = scene(furnished_room(6.0));
+        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
         let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(1, true);
@@ -718,7 +718,7 @@ mod tests {
     /// No gain for `sim.stuck_timeout_s` ends the run `stuck` at exactly that step.
     #[test]
     fn no_progress_ends_the_run_stuck_at_the_timeout() {
-        let s = scene(furnished_room(6.0));
+        let s = scene(furnished_room(4.0));
         let mut cfg = Config::default();
         cfg.sim.stuck_timeout_s = 2.0;
         cfg.sim.stuck_min_gain_m3 = 1e9;
@@ -743,7 +743,7 @@ mod tests {
                 self.1 >= self.0
             }
         }
-        let s = scene(furnished_room(6.0));
+        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
         let world = World::new(&s, &cfg, None).unwrap();
         let mut sim = Simulation::new(&s, world, &cfg, PlannerKind::Greedy).unwrap();
