@@ -426,7 +426,16 @@ fn default_tree() -> toml::Table {
 
 impl Config {
     /// Builds a config from the defaults, an optional TOML file, and `key=value` overrides, in that
-    /// order, then validates it.
+    /// order, then validates it. A bad key or value is a usage error naming the dotted key.
+    ///
+    /// ```
+    /// use tensorscout::Config;
+    /// let cfg = Config::load(None, &["map.voxel_m=0.05".to_string()]).unwrap();
+    /// assert_eq!(cfg.map.voxel_m, 0.05);
+    /// let e = Config::load(None, &["map.voxel_m=-1".to_string()]).unwrap_err();
+    /// assert_eq!(e.exit_code(), 2);
+    /// assert!(e.to_string().contains("map.voxel_m"));
+    /// ```
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
         let mut tree = default_tree();
         if let Some(path) = file {

@@ -219,6 +219,28 @@ pub enum Action {
 /// The core is four methods; what only some planners do comes as optional capabilities
 /// ([`Planner::field_planner`]) and run statistics ([`Planner::stats`]), both defaulted. See
 /// `ARCHITECTURE.md` ("How to add a planner") and `examples/planner.rs`.
+///
+/// ```
+/// use tensorscout::plan::{Action, Plan, PlanContext, Planner};
+///
+/// /// Turns in place once, then declares the exploration complete.
+/// struct LookOnce(bool);
+///
+/// impl Planner for LookOnce {
+///     fn name(&self) -> &'static str {
+///         "look-once"
+///     }
+///     fn plan(&mut self, _ctx: &mut PlanContext) -> tensorscout::Result<Plan> {
+///         let done = std::mem::replace(&mut self.0, true);
+///         Ok(if done { Action::Complete } else { Action::LookAround }.into())
+///     }
+///     fn is_outdated(&mut self, _ctx: &PlanContext, _action: &Action) -> bool {
+///         false
+///     }
+///     fn action_finished(&mut self, _ctx: &PlanContext, _reached: bool) {}
+/// }
+/// # let _ = LookOnce(false);
+/// ```
 pub trait Planner {
     /// The name used on the command line and in results.
     fn name(&self) -> &'static str;
