@@ -286,6 +286,16 @@ pub struct Plan {
     pub report: PlanReport,
 }
 
+impl Plan {
+    /// A plan with its tour and TSP time (see [`PlanReport`]).
+    pub fn new(action: Action, tour: Vec<Point2<f64>>, tsp_ms: Option<f64>) -> Plan {
+        Plan {
+            action,
+            report: PlanReport { tour, tsp_ms },
+        }
+    }
+}
+
 impl From<Action> for Plan {
     /// A plan that reports nothing beyond its action.
     fn from(action: Action) -> Plan {

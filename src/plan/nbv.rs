@@ -33,7 +33,7 @@
 //!   a random sampler's miss cannot end the run early.
 
 use super::tsp::{self, CostMatrix, GaParams};
-use super::{Action, Count, Plan, PlanContext, PlanReport, Planner};
+use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::{Config, NbvConfig};
 use crate::grid::GridSpec;
 use crate::map::occupancy::{traverse, VoxelState};
@@ -576,11 +576,7 @@ impl Planner for Nbv {
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
         let action = self.next_action(ctx)?;
-        let report = PlanReport {
-            tour: self.tour.clone(),
-            tsp_ms: self.tsp_ms.take(),
-        };
-        Ok(Plan { action, report })
+        Ok(Plan::new(action, self.tour.clone(), self.tsp_ms.take()))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {

@@ -59,7 +59,7 @@
 //!   instead once they offer no gain.
 
 use super::greedy::Greedy;
-use super::{path_length, Action, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
+use super::{path_length, Action, FieldPlanner, Plan, PlanContext, Planner};
 use crate::config::{Config, FieldConfig, TensorConfig};
 use crate::field::advect::{trace, StopConditions, StopReason};
 use crate::field::{
@@ -1186,11 +1186,11 @@ impl Planner for Tensor {
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
         let action = self.next_action(ctx)?;
-        let report = PlanReport {
-            tour: self.route_target.into_iter().collect(),
-            tsp_ms: None,
-        };
-        Ok(Plan { action, report })
+        Ok(Plan::new(
+            action,
+            self.route_target.into_iter().collect(),
+            None,
+        ))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {

@@ -33,7 +33,7 @@
 use super::frontier_visit::{blind_zone_viewpoint, FrontierVisits, Visit};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
-use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanReport, Planner};
+use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, Planner};
 use crate::config::{Config, FieldConfig, Grouping, ThpConfig};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
@@ -807,11 +807,11 @@ impl Planner for Thp {
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
         let action = self.next_action(ctx)?;
-        let report = PlanReport {
-            tour: self.tour_points.clone(),
-            tsp_ms: self.tsp_ms.take(),
-        };
-        Ok(Plan { action, report })
+        Ok(Plan::new(
+            action,
+            self.tour_points.clone(),
+            self.tsp_ms.take(),
+        ))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {

@@ -634,6 +634,18 @@ mod tests {
         }
     }
 
+    /// The 4 m furnished test room, built once.
+    fn small_room() -> &'static Scene {
+        static ROOM: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+        ROOM.get_or_init(|| scene(furnished_room(4.0)))
+    }
+
+    /// A simulation of the small room with `planner` under `cfg`.
+    fn room_sim<'a>(cfg: &'a Config, planner: &'a mut dyn Planner) -> Simulation<'a> {
+        let world = World::new(small_room(), cfg, None).unwrap();
+        Simulation::with_planner(small_room(), world, cfg, Box::new(planner))
+    }
+
     /// Steps `sim` until it ends; returns the outcome of every step.
     fn drive(sim: &mut Simulation, observer: &mut dyn Observer) -> Vec<StepOutcome> {
         let mut outcomes = Vec::new();
@@ -651,13 +663,11 @@ mod tests {
     /// after the end changes nothing and reports the same ending.
     #[test]
     fn the_budget_ends_the_run_at_its_step() {
-        let s = scene(furnished_room(4.0));
         let mut cfg = Config::default();
         cfg.sim.budget_s = 3.0;
         cfg.sim.stuck_timeout_s = 1000.0;
-        let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(usize::MAX, false);
-        let mut sim = Simulation::with_planner(&s, world, &cfg, Box::new(&mut planner));
+        let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);
         assert_eq!(outcomes.len(), 30);
         assert_eq!(outcomes[29], StepOutcome::Ended(Termination::Budget));
@@ -675,11 +685,9 @@ mod tests {
     /// motion of that step.
     #[test]
     fn a_planner_that_is_done_completes_the_run() {
-        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
-        let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(2, false);
-        let mut sim = Simulation::with_planner(&s, world, &cfg, Box::new(&mut planner));
+        let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);
         assert_eq!(
             outcomes.last(),
@@ -699,11 +707,9 @@ mod tests {
     /// failure during a run leaves.
     #[test]
     fn a_planner_error_ends_the_run_with_its_message() {
-        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
-        let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(1, true);
-        let mut sim = Simulation::with_planner(&s, world, &cfg, Box::new(&mut planner));
+        let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);
         assert_eq!(
             outcomes.last(),
@@ -718,13 +724,11 @@ mod tests {
     /// No gain for `sim.stuck_timeout_s` ends the run `stuck` at exactly that step.
     #[test]
     fn no_progress_ends_the_run_stuck_at_the_timeout() {
-        let s = scene(furnished_room(4.0));
         let mut cfg = Config::default();
         cfg.sim.stuck_timeout_s = 2.0;
         cfg.sim.stuck_min_gain_m3 = 1e9;
-        let world = World::new(&s, &cfg, None).unwrap();
         let mut planner = scripted(usize::MAX, false);
-        let mut sim = Simulation::with_planner(&s, world, &cfg, Box::new(&mut planner));
+        let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);
         assert_eq!(outcomes.len(), 20);
         assert_eq!(outcomes[19], StepOutcome::Ended(Termination::Stuck));
@@ -743,10 +747,9 @@ mod tests {
                 self.1 >= self.0
             }
         }
-        let s = scene(furnished_room(4.0));
         let cfg = Config::default();
-        let world = World::new(&s, &cfg, None).unwrap();
-        let mut sim = Simulation::new(&s, world, &cfg, PlannerKind::Greedy).unwrap();
+        let world = World::new(small_room(), &cfg, None).unwrap();
+        let mut sim = Simulation::new(small_room(), world, &cfg, PlannerKind::Greedy).unwrap();
         let mut stop = StopAt(7, 0);
         let outcomes = drive(&mut sim, &mut stop);
         assert_eq!(outcomes.len(), 8);
