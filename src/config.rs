@@ -237,6 +237,7 @@ pub struct TensorConfig {
     pub look_spacing_m: f64,
     pub stall_timeout_s: f64,
     pub topological_control: bool,
+    pub fallback: bool,
 }
 
 /// NBV-TSP: coverage sampling, heuristic gain, GA over a fixed-start open TSP (seed 002).

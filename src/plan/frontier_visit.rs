@@ -14,6 +14,10 @@ use nalgebra::Point2;
 /// Failed attempts after which a frontier is given up.
 const MAX_ATTEMPTS: u32 = 2;
 
+/// Radius around an aim the robot failed to reach within which the frontier is given up, metres:
+/// about the robot's diameter, so that the next aim is a place the robot might fit.
+const UNREACHED_GIVE_UP_M: f64 = 0.5;
+
 /// One frontier being visited.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Visit {
@@ -106,7 +110,20 @@ impl FrontierVisits {
         };
         entry.1 += 1;
         if entry.1 >= MAX_ATTEMPTS {
-            self.give_up(grid, visit);
+            self.give_up_near_aim(grid, visit);
+        }
+    }
+
+    /// Marks the target cells within [`UNREACHED_GIVE_UP_M`] of the aim unobservable: the robot could
+    /// not get there, but the rest of the segment (up to a metre of frontier) may well be reachable
+    /// from another side, and giving it all up ended runs with whole rooms behind it unentered.
+    fn give_up_near_aim(&mut self, grid: &GridSpec, visit: &Visit) {
+        let aim = grid.center(grid.cell(visit.aim));
+        self.unobservable[visit.aim] = true;
+        for c in &visit.target {
+            if (grid.center(*c) - aim).norm() <= UNREACHED_GIVE_UP_M {
+                self.unobservable[grid.index(*c)] = true;
+            }
         }
     }
 
@@ -137,4 +154,76 @@ pub fn blind_zone_viewpoint(
         })
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
         .map(|(_, i)| i)
+}
+
+/// Whether no obstacle cell lies on the straight line between two cell centres (sampled every half
+/// cell).
+pub fn line_of_sight(map: &Map, grid: &GridSpec, a: usize, b: usize) -> bool {
+    let (pa, pb) = (grid.center(grid.cell(a)), grid.center(grid.cell(b)));
+    let steps = (((pb - pa).norm() / (0.5 * grid.res)).ceil() as usize).max(1);
+    (0..=steps).all(|s| {
+        let p = pa + (pb - pa) * (s as f64 / steps as f64);
+        grid.cell_of(p)
+            .is_some_and(|c| !map.is_obstacle(grid.index(c)))
+    })
+}
+
+/// A place to look at a frontier the robot cannot reach, typically one seen through a gap narrower
+/// than the robot: `viewpoint` is the least-cost reachable traversable cell `view_m` to `2·view_m`
+/// from a frontier cell (`aim`, of segment `segment`) with a clear line of sight to it, so that the
+/// camera sees the floor there and the space behind it. Without this, a run called the map complete
+/// while space it could see from where it can drive was left unseen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DistantView {
+    pub viewpoint: usize,
+    pub segment: usize,
+    pub aim: usize,
+}
+
+/// The cheapest [`DistantView`] over the frontier cells (flat indices, per segment) that `df` does not
+/// reach and that were not given up; ties go to the lower viewpoint, then aim index.
+pub fn distant_view(
+    map: &Map,
+    df: &DistanceField,
+    segments: &[Vec<usize>],
+    visits: &FrontierVisits,
+    view_m: f64,
+) -> Option<DistantView> {
+    let grid = map.grid();
+    let reach = (2.0 * view_m / grid.res).ceil() as i32;
+    let mut best: Option<(f32, usize, usize, usize)> = None;
+    for (k, seg) in segments.iter().enumerate() {
+        for &aim in seg {
+            let c = &grid.cell(aim);
+            if visits.is_unobservable(aim) || df.cost_to(aim).is_some() {
+                continue;
+            }
+            let f = grid.center(*c);
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let Some(v) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                        continue;
+                    };
+                    let Some(cost) = df.cost_to(v) else {
+                        continue;
+                    };
+                    if best.is_some_and(|(bc, bv, ba, _)| (cost, v, aim) >= (bc, bv, ba)) {
+                        continue;
+                    }
+                    let d = (grid.center(grid.cell(v)) - f).norm();
+                    if d < view_m || d > 2.0 * view_m || !map.is_traversable(v) {
+                        continue;
+                    }
+                    if line_of_sight(map, grid, v, aim) {
+                        best = Some((cost, v, aim, k));
+                    }
+                }
+            }
+        }
+    }
+    best.map(|(_, viewpoint, aim, segment)| DistantView {
+        viewpoint,
+        segment,
+        aim,
+    })
 }

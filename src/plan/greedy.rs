@@ -4,10 +4,12 @@
 //! robot), stops `view_distance_m` short of it (see [`super::frontier_visit`]), turns once in place to
 //! look into the unknown, and re-plans as soon as its target segment has been seen or its path is
 //! blocked. Frontier cells within `search.near_unknown_radius_m` of the robot are skipped: they border
-//! the camera's blind zone and are seen once the robot moves on. The run is complete when no
-//! reachable, observable frontier is left.
+//! the camera's blind zone and are seen once the robot moves on. When no reachable frontier is left,
+//! the robot still looks once at each frontier seen through a gap too narrow to pass, from a reachable
+//! cell in line of sight (see [`super::frontier_visit::distant_view`]). The run is complete when no
+//! frontier it could reach or look at is left.
 
-use super::frontier_visit::{blind_zone_viewpoint, FrontierVisits, Visit};
+use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
 use super::{Action, Plan, PlanContext, Planner};
 use crate::Result;
 
@@ -19,6 +21,10 @@ pub struct Greedy {
     visit: Option<Visit>,
     /// The path's cells, checked every step for blockage.
     path_cells: Vec<usize>,
+    /// The current action was cut short by a newly seen obstacle on its path: the frontier is planned
+    /// for again, and this does not count as a failed attempt at it (as in THP). Counting it gave up
+    /// frontiers behind doors whose first path crossed blind-zone cells that turned out inflated.
+    rerouted: bool,
 }
 
 impl Greedy {
@@ -79,7 +85,31 @@ impl Greedy {
             // Only frontiers in the blind zone are left: step back to a viewpoint from which the
             // camera sees the floor there.
             let Some((_, near_goal, k)) = best_near else {
-                return Ok(Action::Complete);
+                // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
+                // pass, each once, before calling the map done.
+                let cells: Vec<Vec<usize>> = segments
+                    .iter()
+                    .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
+                    .collect();
+                let Some(view) = distant_view(map, &df, &cells, &self.visits, view_m) else {
+                    return Ok(Action::Complete);
+                };
+                self.visit = Some(Visit {
+                    target: segments[view.segment].cells.clone(),
+                    aim: view.aim,
+                    near_view: true,
+                });
+                let path = df
+                    .path_to(&grid, view.viewpoint)
+                    .expect("reachable by construction");
+                if path.cells.len() < 2 {
+                    return Ok(Action::LookAround);
+                }
+                self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
+                return Ok(Action::Follow {
+                    path: path.cells.iter().map(|c| grid.center(*c)).collect(),
+                    look_on_arrival: true,
+                });
             };
             self.visit = Some(Visit {
                 target: segments[k].cells.clone(),
@@ -130,10 +160,15 @@ impl Planner for Greedy {
         }
         let seen = self.visit.as_ref().is_some_and(|v| !v.is_open(ctx.map));
         let blocked = self.path_cells.iter().any(|&i| !ctx.passable(i));
+        self.rerouted = blocked && !seen;
         seen || blocked
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
+        if std::mem::take(&mut self.rerouted) {
+            self.visit = None;
+            return;
+        }
         if let Some(visit) = self.visit.take() {
             self.visits.finished(ctx.map, &visit, reached);
         }

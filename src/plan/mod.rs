@@ -212,6 +212,10 @@ pub enum Action {
     LookAround,
     /// Nothing reachable is left to explore.
     Complete,
+    /// The planner's method has no way to go on although it has not covered what it can reach (for
+    /// TENSOR without its GREEDY fallback: no routing edge with gain while frontiers remain). The run
+    /// ends `stuck` at once, and the planner counts the cause in its statistics.
+    Stuck,
 }
 
 /// A planner: turns what is known into the next action.
@@ -394,6 +398,15 @@ impl PlannerKind {
             PlannerKind::Tensor => "tensor",
             PlannerKind::Nbv => "nbv",
             PlannerKind::Greedy => "greedy",
+        }
+    }
+
+    /// The name results and bench tables carry under `cfg`: the command-line name, except that TENSOR
+    /// with its GREEDY hand-over on is `tensor+greedy`, so that the two are never averaged together.
+    pub fn label(self, cfg: &Config) -> &'static str {
+        match self {
+            PlannerKind::Tensor if cfg.tensor.fallback => tensor::FALLBACK_LABEL,
+            _ => self.name(),
         }
     }
 

@@ -32,10 +32,10 @@
 //! - Before answering `Complete`, every frontier segment's anchor is tried as a viewpoint, so that
 //!   a random sampler's miss cannot end the run early.
 
+use super::frontier_visit::line_of_sight;
 use super::tsp::{self, CostMatrix, GaParams};
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::{Config, NbvConfig};
-use crate::grid::GridSpec;
 use crate::map::occupancy::{traverse, VoxelState};
 use crate::map::Map;
 use crate::Result;
@@ -376,17 +376,6 @@ impl Nbv {
     }
 }
 
-/// Whether no obstacle cell lies on the straight line between two cell centres.
-fn line_of_sight(map: &Map, grid: &GridSpec, a: usize, b: usize) -> bool {
-    let (pa, pb) = (grid.center(grid.cell(a)), grid.center(grid.cell(b)));
-    let steps = (((pb - pa).norm() / (0.5 * grid.res)).ceil() as usize).max(1);
-    (0..=steps).all(|s| {
-        let p = pa + (pb - pa) * (s as f64 / steps as f64);
-        grid.cell_of(p)
-            .is_some_and(|c| !map.is_obstacle(grid.index(c)))
-    })
-}
-
 /// Whether a frontier cell lies within `r` of `p`.
 fn frontier_near(map: &Map, p: Point2<f64>, r: f64) -> bool {
     let grid = map.grid();
@@ -676,6 +665,7 @@ impl Planner for Nbv {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::GridSpec;
     use crate::map::testing::seen_from;
     use crate::map::Map;
     use crate::scene::TriMesh;

@@ -38,7 +38,10 @@
 //!   robot's body against the known scene; unknown cells pass, as in the paper).
 //!
 //! Deviations, each to keep the comparison fair or the run finite:
-//! - **Fallback.** When the graph offers nothing (no node reachable or no edge with gain) while
+//! - **Fallback (option `tensor.fallback`, off by default).** Off, the paper's termination rule
+//!   holds: when the graph offers nothing while a reachable, observable frontier remains, the method
+//!   has failed and the run ends `stuck` (counted as `stuck_no_route`). On (results labelled
+//!   `tensor+greedy`): when the graph offers nothing (no node reachable or no edge with gain) while
 //!   frontiers remain reachable, the robot drives to the nearest frontier with A* (the GREEDY planner,
 //!   embedded, so that its give-up rules for unobservable frontiers are shared); it advects again
 //!   as soon as an edge has gain. One GREEDY leg (until it reaches its goal) is also driven when
@@ -74,6 +77,8 @@ use std::collections::BTreeMap;
 /// Gain floor in `c(e) = 1 / max(Ī, GAIN_FLOOR)`: edges without gain keep a finite cost, so the
 /// tree spans every reachable node.
 const GAIN_FLOOR: f64 = 1e-3;
+/// The planner's name in results with the GREEDY hand-over on (`tensor.fallback`).
+pub const FALLBACK_LABEL: &str = "tensor+greedy";
 /// Fraction of an edge's samples that must pass the contact test for the edge to be accessible.
 const ACCESSIBLE_FRACTION: f64 = 0.9;
 /// A node is snapped to a reachable cell within this distance, metres.
@@ -367,6 +372,9 @@ struct Stats {
     branch_choices: u64,
     mst_routes: u64,
     fallback_plans: u64,
+    /// Runs ended `stuck` because routing offered no edge with gain while frontiers remained
+    /// reachable and the GREEDY hand-over is off (0 or 1).
+    stuck_no_route: u64,
     stalls: u64,
     looks: u64,
     wall_escapes: u64,
@@ -759,8 +767,23 @@ impl Tensor {
         })
     }
 
-    /// GREEDY's nearest frontier; `Complete` when none is left.
+    /// The method has nothing to follow (no edge with gain, or nothing new for long). With
+    /// `tensor.fallback`: GREEDY's nearest frontier, `Complete` when none is left. Without (the
+    /// default, the paper's rule): `Complete` when no reachable, observable frontier is left, else
+    /// `Stuck`.
     fn fallback(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        if !self.cfg.fallback {
+            self.route_target = None;
+            self.advecting = false;
+            self.current = Current::None;
+            // GREEDY's choice decides whether a frontier it would pursue is left; its action is not
+            // taken.
+            if self.greedy.next_action(ctx)? == Action::Complete {
+                return Ok(Action::Complete);
+            }
+            self.stats.stuck_no_route += 1;
+            return Ok(Action::Stuck);
+        }
         self.stats.fallback_plans += 1;
         self.route_target = None;
         self.advecting = false;
@@ -1136,10 +1159,10 @@ impl Tensor {
         }
         if ctx.time_s - self.last_any_progress_s >= 3.0 * self.cfg.stall_timeout_s {
             // Nothing new for long whatever the mode (routes that lead nowhere reset the advection
-            // watchdog): one GREEDY leg.
+            // watchdog): one GREEDY leg, if the hand-over is on.
             self.stats.stalls += 1;
             self.last_any_progress_s = ctx.time_s;
-            self.fallback_leg = true;
+            self.fallback_leg = self.cfg.fallback;
         }
         if self.fallback_leg {
             return self.fallback(ctx);
@@ -1156,9 +1179,10 @@ impl Tensor {
             self.stalls_in_a_row += 1;
             self.last_progress_s = ctx.time_s;
             if self.stalls_in_a_row >= 2 {
-                // Twice nothing new: one full GREEDY leg, to its frontier, before advecting again.
+                // Twice nothing new: one full GREEDY leg, to its frontier, before advecting again (if
+                // the hand-over is on).
                 self.stalls_in_a_row = 0;
-                self.fallback_leg = true;
+                self.fallback_leg = self.cfg.fallback;
             }
             match self.route(ctx, None) {
                 Routed::Leave { heading, node_id } => {
@@ -1181,7 +1205,11 @@ impl Tensor {
 
 impl Planner for Tensor {
     fn name(&self) -> &'static str {
-        "tensor"
+        if self.cfg.fallback {
+            FALLBACK_LABEL
+        } else {
+            "tensor"
+        }
     }
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
@@ -1328,6 +1356,7 @@ impl Tensor {
             ("branch_choices", s.branch_choices),
             ("mst_routes", s.mst_routes),
             ("fallback_plans", s.fallback_plans),
+            ("stuck_no_route", s.stuck_no_route),
             ("stalls", s.stalls),
             ("looks", s.looks),
             ("wall_escapes", s.wall_escapes),

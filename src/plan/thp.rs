@@ -25,12 +25,16 @@
 //! up a frontier still unobserved after the robot stood on it and looked. The run is complete when
 //! no anchor and no reachable, observable frontier is left.
 //!
+//! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
+//! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
+//! goals that left a group with frontiers left and came back to one.
+//!
 //! Ablations (`[thp]`): `extension = false` keeps only the degenerate points of the first key frame
 //! (Table 3); `grouping = "none" | "kmeans"` replaces anchor groups by single frontiers or k-means
 //! clusters, re-solving the TSP at every goal choice (Fig. 8); `advection = false` follows the A*
 //! path itself.
 
-use super::frontier_visit::{blind_zone_viewpoint, FrontierVisits, Visit};
+use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
 use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, Planner};
@@ -154,6 +158,7 @@ pub struct Thp {
     /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
     row_searches: Vec<Search>,
     stats: ThpStats,
+    ledger: PathLedger,
 }
 
 /// THP's run statistics (`planner_stats`, under the field names).
@@ -174,6 +179,58 @@ struct ThpStats {
     advected_segments: Count,
     advection_stops_at_points: Count,
     advection_fallbacks: Count,
+    distant_views: Count,
+    groups_left_unfinished: Count,
+    returns_to_unfinished: Count,
+    /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
+    path_m: [Count; 5],
+}
+
+/// Why the robot is driving where it is: each goal's reason, and the metres driven for it. Written
+/// to the statistics as `path_m_*`, so that a comparison with GREEDY can say where THP's extra
+/// metres go (same group, next group in the tour, leaving a group with frontiers left for another,
+/// coming back to such a group, or a goal outside the tour).
+#[derive(Clone, Debug, Default)]
+struct PathLedger {
+    /// Node key (anchor) of the last tour goal (kept across goals outside the tour).
+    last_node: Option<usize>,
+    /// Anchors the robot left while their group still had frontiers.
+    left_unfinished: BTreeSet<usize>,
+    kind: GoalKind,
+    last_pos: Option<Point2<f64>>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum GoalKind {
+    /// Blind-zone views, views through gaps, escapes and the initial look: no tour node.
+    #[default]
+    OutsideTour,
+    SameGroup,
+    NextGroup,
+    /// A new group chosen while the previous one still had frontiers.
+    LeftUnfinished,
+    /// Back to a group left unfinished earlier.
+    Return,
+}
+
+impl GoalKind {
+    const ALL: [GoalKind; 5] = [
+        GoalKind::OutsideTour,
+        GoalKind::SameGroup,
+        GoalKind::NextGroup,
+        GoalKind::LeftUnfinished,
+        GoalKind::Return,
+    ];
+
+    fn key(self) -> &'static str {
+        match self {
+            GoalKind::OutsideTour => "path_m_outside_tour",
+            GoalKind::SameGroup => "path_m_same_group",
+            GoalKind::NextGroup => "path_m_next_group",
+            GoalKind::LeftUnfinished => "path_m_left_unfinished",
+            GoalKind::Return => "path_m_return",
+        }
+    }
 }
 
 impl Thp {
@@ -201,6 +258,43 @@ impl Thp {
             cost_rows: BTreeMap::new(),
             row_searches: Vec::new(),
             stats: ThpStats::default(),
+            ledger: PathLedger::default(),
+        }
+    }
+
+    /// Classifies a new tour goal at node `node`; `open` says whether a node key still has
+    /// frontiers.
+    fn note_tour_goal(&mut self, node: usize, open: impl Fn(usize) -> bool) {
+        let l = &mut self.ledger;
+        let kind = match l.last_node {
+            Some(p) if p == node => GoalKind::SameGroup,
+            Some(p) if open(p) => {
+                l.left_unfinished.insert(p);
+                if l.left_unfinished.contains(&node) {
+                    GoalKind::Return
+                } else {
+                    GoalKind::LeftUnfinished
+                }
+            }
+            _ if l.left_unfinished.contains(&node) => GoalKind::Return,
+            _ => GoalKind::NextGroup,
+        };
+        l.last_node = Some(node);
+        l.kind = kind;
+        match kind {
+            GoalKind::LeftUnfinished => self.stats.groups_left_unfinished.add(1.0),
+            GoalKind::Return => self.stats.returns_to_unfinished.add(1.0),
+            _ => {}
+        }
+    }
+
+    /// Adds the distance moved since the last call to the current goal's kind.
+    fn note_position(&mut self, p: Point2<f64>) {
+        if let Some(q) = self.ledger.last_pos.replace(p) {
+            let d = (p - q).norm();
+            if d > 0.0 {
+                self.stats.path_m[self.ledger.kind as usize].add(d);
+            }
         }
     }
 
@@ -546,12 +640,32 @@ impl Thp {
                         super::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
                     {
                         self.stats.escapes.add(1.0);
+                        self.ledger.kind = GoalKind::OutsideTour;
                         self.goal = None;
                         return Ok(Some(Action::Follow {
                             path,
                             look_on_arrival: false,
                         }));
                     }
+                }
+                // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
+                // pass, each once, before calling the map done (shared with GREEDY).
+                if let Some(view) = distant_view(map, df, &segment_cells, &self.visits, self.view_m)
+                {
+                    self.stats.distant_views.add(1.0);
+                    let visit = Visit {
+                        target: segment_cells[view.segment]
+                            .iter()
+                            .map(|&i| grid.cell(i))
+                            .collect(),
+                        aim: view.aim,
+                        near_view: true,
+                    };
+                    let path = df
+                        .path_to(&grid, view.viewpoint)
+                        .expect("reachable by construction");
+                    self.set_goal(ctx, visit, usize::MAX, &path.cells);
+                    return Ok(None);
                 }
                 return Ok(Some(Action::Complete));
             };
@@ -616,6 +730,9 @@ impl Thp {
         }
         // A* calls by cause, for the advection claim (§3.5): a new goal, or the same goal again.
         let same_goal = self.goal.as_ref().is_some_and(|g| g.visit.aim == visit.aim);
+        if !same_goal {
+            self.note_tour_goal(first, |k| nodes.iter().any(|n| n.key == k));
+        }
         if same_goal {
             self.stats.astar_same_goal.add(1.0);
         } else {
@@ -643,6 +760,9 @@ impl Thp {
         cells: &[crate::grid::Cell],
     ) {
         let grid = ctx.map.grid();
+        if node == usize::MAX {
+            self.ledger.kind = GoalKind::OutsideTour;
+        }
         let path: Vec<Point2<f64>> = cells.iter().map(|c| grid.center(*c)).collect();
         if self.cfg.advection {
             if let Some(field) = &mut self.field {
@@ -756,6 +876,7 @@ impl FieldPlanner for Thp {
 impl Thp {
     /// The next action (see [`Planner::plan`]).
     fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        self.note_position(ctx.pose.position());
         self.visits.ensure(ctx.map.grid());
         self.tsp_ms = None;
         let keep_goal =
@@ -815,6 +936,7 @@ impl Planner for Thp {
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        self.note_position(ctx.pose.position());
         if !matches!(action, Action::Follow { .. }) {
             return false;
         }
@@ -863,23 +985,30 @@ impl Planner for Thp {
 
     fn stats(&self) -> BTreeMap<String, f64> {
         let s = &self.stats;
-        super::counted([
-            ("key_frames", s.key_frames),
-            ("anchors_degenerate", s.anchors_degenerate),
-            ("anchors_frontier", s.anchors_frontier),
-            ("anchors_visited", s.anchors_visited),
-            ("groups_split", s.groups_split),
-            ("tsp_solves", s.tsp_solves),
-            ("tsp_nodes_max", s.tsp_nodes_max),
-            ("tsp_nodes_total", s.tsp_nodes_total),
-            ("cost_rows", s.cost_rows),
-            ("escapes", s.escapes),
-            ("astar_new_goal", s.astar_new_goal),
-            ("astar_same_goal", s.astar_same_goal),
-            ("advected_segments", s.advected_segments),
-            ("advection_stops_at_points", s.advection_stops_at_points),
-            ("advection_fallbacks", s.advection_fallbacks),
-        ])
+        super::counted(
+            [
+                ("key_frames", s.key_frames),
+                ("anchors_degenerate", s.anchors_degenerate),
+                ("anchors_frontier", s.anchors_frontier),
+                ("anchors_visited", s.anchors_visited),
+                ("groups_split", s.groups_split),
+                ("tsp_solves", s.tsp_solves),
+                ("tsp_nodes_max", s.tsp_nodes_max),
+                ("tsp_nodes_total", s.tsp_nodes_total),
+                ("cost_rows", s.cost_rows),
+                ("escapes", s.escapes),
+                ("astar_new_goal", s.astar_new_goal),
+                ("astar_same_goal", s.astar_same_goal),
+                ("advected_segments", s.advected_segments),
+                ("advection_stops_at_points", s.advection_stops_at_points),
+                ("advection_fallbacks", s.advection_fallbacks),
+                ("distant_views", s.distant_views),
+                ("groups_left_unfinished", s.groups_left_unfinished),
+                ("returns_to_unfinished", s.returns_to_unfinished),
+            ]
+            .into_iter()
+            .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),
+        )
     }
 }
 

@@ -111,7 +111,7 @@ impl MotionExecutor {
                 look_on_arrival: *look_on_arrival,
                 tight: false,
             },
-            Action::Follow { .. } | Action::Complete => Phase::Idle,
+            Action::Follow { .. } | Action::Complete | Action::Stuck => Phase::Idle,
             Action::LookAround => Phase::Looking { turned_rad: 0.0 },
         };
     }

@@ -403,10 +403,10 @@ impl<'a> Simulation<'a> {
         let planned = self.plan_stage(time_s, observer);
         self.clock.lap(Stage::Plan);
         match planned {
-            Ok(true) => {}
-            Ok(false) => {
+            Ok(None) => {}
+            Ok(Some(ending)) => {
                 self.clock.end();
-                return self.end(Termination::Complete);
+                return self.end(ending);
             }
             Err(e) => {
                 self.clock.end();
@@ -488,9 +488,14 @@ impl<'a> Simulation<'a> {
         StepOutcome::Running
     }
 
-    /// The plan stage: abandons an outdated action and asks for a new one when needed. `Ok(false)`
-    /// when the planner answered that nothing is left to explore.
-    fn plan_stage(&mut self, time_s: f64, observer: &mut dyn Observer) -> Result<bool> {
+    /// The plan stage: abandons an outdated action and asks for a new one when needed. The run's
+    /// ending when the planner answered that nothing is left to explore (`complete`) or that its
+    /// method cannot go on (`stuck`).
+    fn plan_stage(
+        &mut self,
+        time_s: f64,
+        observer: &mut dyn Observer,
+    ) -> Result<Option<Termination>> {
         let mut ctx = PlanContext {
             map: &self.map,
             pose: self.robot.pose,
@@ -503,7 +508,7 @@ impl<'a> Simulation<'a> {
             self.need_plan = true;
         }
         if !self.need_plan {
-            return Ok(true);
+            return Ok(None);
         }
         self.replans += 1;
         let Plan { action, report } = self.planner.plan(&mut ctx)?;
@@ -511,13 +516,14 @@ impl<'a> Simulation<'a> {
             self.clock.record_tsp(ms);
         }
         match action {
-            Action::Complete => Ok(false),
+            Action::Complete => Ok(Some(Termination::Complete)),
+            Action::Stuck => Ok(Some(Termination::Stuck)),
             a => {
                 observer.on_plan(time_s, &a, &self.map, &report.tour);
                 self.action = a;
                 self.motion.start(&self.action);
                 self.need_plan = false;
-                Ok(true)
+                Ok(None)
             }
         }
     }
