@@ -27,16 +27,36 @@ pub struct Map {
     layers: Layers,
 }
 
+/// What the map takes from the config: its own section and the robot's size (the inflation radius
+/// and the height band the robot sweeps). `Map::new(grid, &cfg)` builds it from a whole `Config`.
+#[derive(Clone, Debug)]
+pub struct MapParams {
+    pub map: crate::config::MapConfig,
+    pub robot_radius_m: f64,
+    pub robot_height_m: f64,
+}
+
+impl From<&Config> for MapParams {
+    fn from(cfg: &Config) -> MapParams {
+        MapParams {
+            map: cfg.map.clone(),
+            robot_radius_m: cfg.robot.radius_m,
+            robot_height_m: cfg.robot.height_m,
+        }
+    }
+}
+
 impl Map {
     /// An all-unknown map over `grid`.
-    pub fn new(grid: GridSpec, cfg: &Config) -> Map {
+    pub fn new(grid: GridSpec, params: impl Into<MapParams>) -> Map {
+        let params = params.into();
         Map {
             occupancy: Occupancy::new(
                 grid,
-                LogOdds::from_config(&cfg.map),
-                layers::robot_band(&grid, cfg),
+                LogOdds::from_config(&params.map),
+                layers::robot_band(&grid, &params),
             ),
-            layers: Layers::new(grid, cfg),
+            layers: Layers::new(grid, &params),
         }
     }
 
