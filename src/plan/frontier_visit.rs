@@ -181,12 +181,12 @@ pub struct DistantView {
 }
 
 /// The cheapest [`DistantView`] over the frontier cells (flat indices, per segment) that `df` does not
-/// reach and that were not given up; ties go to the lower viewpoint, then aim index.
+/// reach and for which `given_up` is false; ties go to the lower viewpoint, then aim index.
 pub fn distant_view(
     map: &Map,
     df: &DistanceField,
     segments: &[Vec<usize>],
-    visits: &FrontierVisits,
+    given_up: impl Fn(usize) -> bool,
     view_m: f64,
 ) -> Option<DistantView> {
     let grid = map.grid();
@@ -195,7 +195,7 @@ pub fn distant_view(
     for (k, seg) in segments.iter().enumerate() {
         for &aim in seg {
             let c = &grid.cell(aim);
-            if visits.is_unobservable(aim) || df.cost_to(aim).is_some() {
+            if given_up(aim) || df.cost_to(aim).is_some() {
                 continue;
             }
             let f = grid.center(*c);

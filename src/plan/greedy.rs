@@ -91,7 +91,9 @@ impl Greedy {
                     .iter()
                     .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
                     .collect();
-                let Some(view) = distant_view(map, &df, &cells, &self.visits, view_m) else {
+                let Some(view) =
+                    distant_view(map, &df, &cells, |i| self.visits.is_unobservable(i), view_m)
+                else {
                     return Ok(Action::Complete);
                 };
                 self.visit = Some(Visit {

@@ -30,9 +30,11 @@
 //!   camera often sees a viewpoint's unknown on the way there); a viewpoint whose gain stays above
 //!   the cutoff after a visit is given up, as is one the robot failed to reach twice.
 //! - Before answering `Complete`, every frontier segment's anchor is tried as a viewpoint, so that
-//!   a random sampler's miss cannot end the run early.
+//!   a random sampler's miss cannot end the run early; then each frontier seen through a gap too
+//!   narrow to pass is looked at once from a reachable cell in line of sight
+//!   ([`super::frontier_visit::distant_view`], shared with GREEDY and THP).
 
-use super::frontier_visit::line_of_sight;
+use super::frontier_visit::{distant_view, line_of_sight};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::{Config, NbvConfig};
@@ -254,6 +256,8 @@ pub struct Nbv {
     /// Cells near a fallback anchor the robot already reached: not tried as anchors again.
     anchor_done: Vec<bool>,
     attempts: BTreeMap<usize, u32>,
+    /// A look through a gap in progress: the aimed frontier cell and its segment's cells.
+    distant: Option<(usize, Vec<usize>)>,
     /// Set when the target was abandoned because its gain dropped (not a failure).
     target_seen: bool,
     steps_since_check: u32,
@@ -268,6 +272,7 @@ pub struct Nbv {
 #[derive(Clone, Debug, Default)]
 struct NbvStats {
     anchor_tries: Count,
+    distant_views: Count,
     anchors_visited: Count,
     gain_evaluations: Count,
     tsp_nodes: Count,
@@ -292,6 +297,7 @@ impl Nbv {
             given_up: Vec::new(),
             anchor_done: Vec::new(),
             attempts: BTreeMap::new(),
+            distant: None,
             target_seen: false,
             steps_since_check: 0,
             moved: None,
@@ -400,6 +406,7 @@ impl Nbv {
         }
         self.tsp_ms = None;
         self.target = None;
+        self.distant = None;
         self.path_cells.clear();
         let robot = ctx.pose.position();
         self.note_position(robot);
@@ -492,7 +499,32 @@ impl Nbv {
         }
         if self.viewpoints.is_empty() {
             self.tour.clear();
-            return Ok(Action::Complete);
+            // Nothing reachable is left: look once at each frontier seen through a gap too narrow to
+            // pass, from a reachable cell in line of sight, before calling the map done (shared with
+            // GREEDY and THP).
+            let segments: Vec<Vec<usize>> = map
+                .frontiers()
+                .iter()
+                .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
+                .collect();
+            let done = |i: usize| self.anchor_done[i] || self.given_up[i];
+            let view_m = ctx.cfg.greedy.view_distance_m;
+            let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
+                return Ok(Action::Complete);
+            };
+            self.stats.distant_views.add(1.0);
+            self.distant = Some((view.aim, segments[view.segment].clone()));
+            let path = df
+                .path_to(&grid, view.viewpoint)
+                .expect("reachable by construction");
+            if path.cells.len() < 2 {
+                return Ok(Action::LookAround);
+            }
+            self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
+            return Ok(Action::Follow {
+                path: path.cells.iter().map(|c| grid.center(*c)).collect(),
+                look_on_arrival: true,
+            });
         }
 
         // Alg. 5: Eq. 7 costs over path costs, the robot as the fixed start (node 0).
@@ -599,6 +631,17 @@ impl Planner for Nbv {
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
         self.note_position(ctx.pose.position());
+        if let Some((aim, cells)) = self.distant.take() {
+            // A look through a gap: done once looked, or after failing to get there twice.
+            let a = self.attempts.entry(aim).or_insert(0);
+            *a += u32::from(!reached);
+            if reached || *a >= MAX_ATTEMPTS {
+                for i in cells {
+                    self.anchor_done[i] = true;
+                }
+            }
+            return;
+        }
         let Some(k) = self.target.take() else {
             return;
         };
@@ -649,6 +692,7 @@ impl Planner for Nbv {
         let s = &self.stats;
         super::counted([
             ("anchor_tries", s.anchor_tries),
+            ("distant_views", s.distant_views),
             ("anchors_visited", s.anchors_visited),
             ("gain_evaluations", s.gain_evaluations),
             ("tsp_nodes", s.tsp_nodes),

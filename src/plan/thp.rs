@@ -650,8 +650,13 @@ impl Thp {
                 }
                 // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
                 // pass, each once, before calling the map done (shared with GREEDY).
-                if let Some(view) = distant_view(map, df, &segment_cells, &self.visits, self.view_m)
-                {
+                if let Some(view) = distant_view(
+                    map,
+                    df,
+                    &segment_cells,
+                    |i| self.visits.is_unobservable(i),
+                    self.view_m,
+                ) {
                     self.stats.distant_views.add(1.0);
                     let visit = Visit {
                         target: segment_cells[view.segment]
