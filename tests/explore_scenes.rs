@@ -61,15 +61,23 @@ fn finishes_every_scene_with(
     planner: PlannerKind,
     min_completeness: f64,
 ) -> Vec<String> {
-    finishes(&common::shipped_scenes(), cfg, planner, min_completeness)
+    finishes(
+        &common::shipped_scenes(),
+        cfg,
+        planner,
+        min_completeness,
+        false,
+    )
 }
 
-/// [`finishes_every_scene_with`] over the scenes at `paths`.
+/// [`finishes_every_scene_with`] over the scenes at `paths`; with `stuck_ok` a run may also end
+/// `stuck` (the other conditions still hold).
 fn finishes(
     paths: &[std::path::PathBuf],
     cfg: &Config,
     planner: PlannerKind,
     min_completeness: f64,
+    stuck_ok: bool,
 ) -> Vec<String> {
     let cfg = cfg.clone();
     let mut failures = Vec::new();
@@ -78,7 +86,8 @@ fn finishes(
         let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
         let out = sim::run(&scene, world, &cfg, planner, &mut sim::NoObserver).unwrap();
         let r = &out.result;
-        let finished = matches!(r.termination, Termination::Complete | Termination::Budget);
+        let finished = matches!(r.termination, Termination::Complete | Termination::Budget)
+            || (stuck_ok && r.termination == Termination::Stuck);
         if !finished || r.collisions != 0 || r.completeness < min_completeness {
             failures.push(format!(
                 "{} {}: {} completeness {:.3} collisions {}",
@@ -171,8 +180,9 @@ fn nbv_finishes_every_shipped_scene() {
 }
 
 /// Every planner on a sample of real apartment plans (`common::sample_plans`, each from its own
-/// start): finished, no collision, and at least 0.75 of the observable volume seen (GREEDY, the
-/// lowest, sees 0.80 on the smallest of them).
+/// start): no error, no collision, and at least 0.75 of the observable volume seen (GREEDY, the
+/// lowest, sees 0.80 on the smallest of them). A run may end `stuck` here: real plans hold
+/// frontiers no planner can reach or see (THP ends `stuck` on plan_115c3a7a64 at 0.93).
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
 fn every_planner_finishes_a_sample_of_real_plans() {
@@ -187,7 +197,7 @@ fn every_planner_finishes_a_sample_of_real_plans() {
         let mut cfg = Config::default();
         // TENSOR with its GREEDY hand-over: as published it may end `stuck` where the method fails.
         cfg.tensor.fallback = planner == PlannerKind::Tensor;
-        failures.extend(finishes(&plans, &cfg, planner, 0.75));
+        failures.extend(finishes(&plans, &cfg, planner, 0.75, true));
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
