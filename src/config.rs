@@ -222,6 +222,7 @@ pub struct ThpConfig {
     pub advection: bool,
     pub advect_length_m: f64,
     pub drift_m: f64,
+    pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }
 
@@ -363,6 +364,7 @@ impl ThpConfig {
             positive(key, v)?;
         }
         non_negative("thp.view_distance_m", self.view_distance_m)?;
+        non_negative("thp.advection_stall_s", self.advection_stall_s)?;
         within("thp.field_period_s", self.field_period_s, 0.01, 1e6)?;
         if !(1..=20).contains(&self.exact_tsp_max_nodes) {
             return Err(Error::usage(format!(

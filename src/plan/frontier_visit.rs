@@ -118,11 +118,22 @@ impl FrontierVisits {
     /// not get there, but the rest of the segment (up to a metre of frontier) may well be reachable
     /// from another side, and giving it all up ended runs with whole rooms behind it unentered.
     fn give_up_near_aim(&mut self, grid: &GridSpec, visit: &Visit) {
-        let aim = grid.center(grid.cell(visit.aim));
-        self.unobservable[visit.aim] = true;
-        for c in &visit.target {
-            if (grid.center(*c) - aim).norm() <= UNREACHED_GIVE_UP_M {
-                self.unobservable[grid.index(*c)] = true;
+        self.give_up_around(grid, visit.aim, visit.target.iter().map(|c| grid.index(*c)));
+    }
+
+    /// Marks `aim` and the `cells` within [`UNREACHED_GIVE_UP_M`] of it unobservable: a place the
+    /// robot failed to get to.
+    pub fn give_up_around(
+        &mut self,
+        grid: &GridSpec,
+        aim: usize,
+        cells: impl IntoIterator<Item = usize>,
+    ) {
+        let p = grid.center(grid.cell(aim));
+        self.unobservable[aim] = true;
+        for i in cells {
+            if (grid.center(grid.cell(i)) - p).norm() <= UNREACHED_GIVE_UP_M {
+                self.unobservable[i] = true;
             }
         }
     }

@@ -25,6 +25,11 @@
 //! up a frontier still unobserved after the robot stood on it and looked. The run is complete when
 //! no anchor and no reachable, observable frontier is left.
 //!
+//! Mechanisms the paper does not have, each a config key: `thp.advection_stall_s` (on, 5 s): when
+//! advection has not brought the robot farther along its A* path for that long, the robot follows the
+//! A* path itself to that goal (counted as `advection_stalls`); pathlines around a wedge or a table
+//! can circle for good, and such runs ended `stuck`.
+//!
 //! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
 //! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
 //! goals that left a group with frontiers left and came back to one.
@@ -53,6 +58,8 @@ const MIN_SEGMENT_M: f64 = 0.3;
 /// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
 /// margin), metres.
 const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
+/// Escapes toward one target cell before the frontier there is given up.
+const MAX_ESCAPES: u32 = 2;
 /// Lloyd iterations of the k-means grouping.
 const KMEANS_ITERATIONS: usize = 20;
 
@@ -124,6 +131,11 @@ struct Goal {
     final_segment: bool,
     /// A* must be re-run before the next segment.
     stale: bool,
+    /// Farthest index along `path` the robot has come, and the simulated time it got there.
+    best_progress: usize,
+    progress_s: f64,
+    /// Advection stopped bringing the robot along (`thp.advection_stall_s`): follow `path` itself.
+    direct: bool,
 }
 
 /// The THP planner. Cloneable, so that a bench can replay one planning step from a saved state.
@@ -159,6 +171,8 @@ pub struct Thp {
     row_searches: Vec<Search>,
     stats: ThpStats,
     ledger: PathLedger,
+    /// Escapes started toward each target cell.
+    escape_tries: BTreeMap<usize, u32>,
 }
 
 /// THP's run statistics (`planner_stats`, under the field names).
@@ -174,11 +188,13 @@ struct ThpStats {
     tsp_nodes_total: Count,
     cost_rows: Count,
     escapes: Count,
+    escapes_given_up: Count,
     astar_new_goal: Count,
     astar_same_goal: Count,
     advected_segments: Count,
     advection_stops_at_points: Count,
     advection_fallbacks: Count,
+    advection_stalls: Count,
     distant_views: Count,
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
@@ -259,6 +275,7 @@ impl Thp {
             row_searches: Vec::new(),
             stats: ThpStats::default(),
             ledger: PathLedger::default(),
+            escape_tries: BTreeMap::new(),
         }
     }
 
@@ -628,25 +645,42 @@ impl Thp {
             self.tour_points.clear();
             // Only frontiers in the blind zone are left: step back to see the floor there.
             let Some(f) = near else {
-                let open_frontiers: Vec<usize> = segment_cells
-                    .iter()
-                    .flatten()
-                    .copied()
-                    .filter(|&i| !self.visits.is_unobservable(i))
-                    .collect();
-                if !open_frontiers.is_empty() {
-                    // Frontiers are left but none is reachable: trapped in a pocket?
-                    if let Some(path) =
-                        super::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
-                    {
-                        self.stats.escapes.add(1.0);
-                        self.ledger.kind = GoalKind::OutsideTour;
-                        self.goal = None;
-                        return Ok(Some(Action::Follow {
-                            path,
-                            look_on_arrival: false,
-                        }));
+                // Frontiers are left but none is reachable: trapped in a pocket? An escape toward
+                // a target that already failed `MAX_ESCAPES` times gives the frontier up there, so
+                // that one unreachable target cannot keep the robot trying until the run is stuck.
+                loop {
+                    let open_frontiers: Vec<usize> = segment_cells
+                        .iter()
+                        .flatten()
+                        .copied()
+                        .filter(|&i| !self.visits.is_unobservable(i))
+                        .collect();
+                    if open_frontiers.is_empty() {
+                        break;
                     }
+                    let Some(path) =
+                        super::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
+                    else {
+                        break;
+                    };
+                    let target = path
+                        .last()
+                        .and_then(|p| grid.cell_of(*p))
+                        .map_or(start, |c| grid.index(c));
+                    let tries = self.escape_tries.entry(target).or_insert(0);
+                    *tries += 1;
+                    if *tries > MAX_ESCAPES {
+                        self.stats.escapes_given_up.add(1.0);
+                        self.visits.give_up_around(&grid, target, open_frontiers);
+                        continue;
+                    }
+                    self.stats.escapes.add(1.0);
+                    self.ledger.kind = GoalKind::OutsideTour;
+                    self.goal = None;
+                    return Ok(Some(Action::Follow {
+                        path,
+                        look_on_arrival: false,
+                    }));
                 }
                 // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
                 // pass, each once, before calling the map done (shared with GREEDY).
@@ -685,6 +719,9 @@ impl Thp {
                     look_on_arrival: true,
                     final_segment: true,
                     stale: false,
+                    best_progress: 0,
+                    progress_s: ctx.time_s,
+                    direct: false,
                 });
                 return Ok(Some(Action::LookAround));
             };
@@ -782,6 +819,9 @@ impl Thp {
             look_on_arrival: true,
             final_segment: false,
             stale: false,
+            best_progress: 0,
+            progress_s: ctx.time_s,
+            direct: false,
         });
     }
 
@@ -795,7 +835,17 @@ impl Thp {
             return Action::LookAround;
         }
         let (progress, _) = nearest_on_path(&goal.path, robot, 0);
-        if self.cfg.advection {
+        if progress > goal.best_progress {
+            goal.best_progress = progress;
+            goal.progress_s = ctx.time_s;
+        } else if self.cfg.advection_stall_s > 0.0
+            && !goal.direct
+            && ctx.time_s - goal.progress_s >= self.cfg.advection_stall_s
+        {
+            goal.direct = true;
+            self.stats.advection_stalls.add(1.0);
+        }
+        if self.cfg.advection && !goal.direct {
             if let Some(field) = &self.field {
                 let aim = goal.path[(progress + 5).min(goal.path.len() - 1)];
                 let heading = if (aim - robot).norm() > 1e-6 {
@@ -1002,11 +1052,13 @@ impl Planner for Thp {
                 ("tsp_nodes_total", s.tsp_nodes_total),
                 ("cost_rows", s.cost_rows),
                 ("escapes", s.escapes),
+                ("escapes_given_up", s.escapes_given_up),
                 ("astar_new_goal", s.astar_new_goal),
                 ("astar_same_goal", s.astar_same_goal),
                 ("advected_segments", s.advected_segments),
                 ("advection_stops_at_points", s.advection_stops_at_points),
                 ("advection_fallbacks", s.advection_fallbacks),
+                ("advection_stalls", s.advection_stalls),
                 ("distant_views", s.distant_views),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),
