@@ -181,8 +181,8 @@ fn nbv_finishes_every_shipped_scene() {
 
 /// Every planner on a sample of real apartment plans (`common::sample_plans`, each from its own
 /// start): no error, no collision, and at least 0.75 of the observable volume seen (GREEDY, the
-/// lowest, sees 0.80 on the smallest of them). A run may end `stuck` here: real plans hold
-/// frontiers no planner can reach or see (THP ends `stuck` on plan_115c3a7a64 at 0.93).
+/// lowest, sees 0.80 on the smallest of them). A run may end `stuck` here: real plans can hold
+/// frontiers a planner cannot reach or see (THP once ended `stuck` on plan_115c3a7a64 at 0.93).
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
 fn every_planner_finishes_a_sample_of_real_plans() {
