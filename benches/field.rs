@@ -149,7 +149,7 @@ fn bench(c: &mut Criterion) {
     // Full recompute against the brute-force reference (single-threaded by construction), on the
     // same constraints (the fully observed scene), in the same run.
     let (mut full, _) =
-        tensorscout::field::field_report(&grid, &full_surface, &full_obstacle, &cfg).unwrap();
+        tensorscout::field::full_field(&grid, &full_surface, &full_obstacle, &cfg).unwrap();
     let constraints = full.constraints();
     let kernel = eval::Kernel::new(cfg.sigma_m, cfg.decay, cfg.weight_cutoff);
     let cmp = tensorscout::field::max_orientation_difference_vs_reference(&mut full);

@@ -7,16 +7,14 @@
 //! the end the bench prints p50 and p95 over the sampled steps of Criterion's per-step medians,
 //! for all sampled steps and for the steps that solved a TSP.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use nalgebra::Point2;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Duration;
-use tensorscout::field::TensorField;
 use tensorscout::map::Map;
 use tensorscout::plan::search::Search;
 use tensorscout::plan::thp::Thp;
-use tensorscout::plan::{Action, PlanContext, Planner};
-use tensorscout::sim::{self, World};
+use tensorscout::plan::{Action, FieldPlanner, Plan, PlanContext, Planner};
+use tensorscout::sim::{self, Simulation, World};
 use tensorscout::{scene, Config, Pose2, Result};
 
 /// Every this many planning steps of the recorded run, one is saved and timed.
@@ -43,7 +41,7 @@ impl Planner for Recorder {
     fn name(&self) -> &'static str {
         self.thp.name()
     }
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
         if self.plans.is_multiple_of(SAMPLE_EVERY) {
             self.saved.push(Snapshot {
                 step: self.plans,
@@ -62,17 +60,8 @@ impl Planner for Recorder {
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
         self.thp.action_finished(ctx, reached)
     }
-    fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
-        self.thp.update_field(map, pose, time_s)
-    }
-    fn field(&self) -> Option<&TensorField> {
-        self.thp.field()
-    }
-    fn tour(&self) -> Vec<Point2<f64>> {
-        self.thp.tour()
-    }
-    fn take_tsp_ms(&mut self) -> Option<f64> {
-        self.thp.take_tsp_ms()
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        self.thp.field_planner()
     }
     fn stats(&self) -> BTreeMap<String, f64> {
         self.thp.stats()
@@ -88,8 +77,8 @@ fn replay(cfg: &Config, snap: &Snapshot, thp: &mut Thp, search: &mut Search) -> 
         cfg,
         search,
     };
-    thp.plan(&mut ctx).expect("a saved step plans again");
-    thp.take_tsp_ms().is_some()
+    let plan = thp.plan(&mut ctx).expect("a saved step plans again");
+    plan.report.tsp_ms.is_some()
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -120,7 +109,8 @@ fn thp_plan(c: &mut Criterion) {
         plans: 0,
         saved: Vec::new(),
     };
-    let out = sim::run_planner(&scene, world, &cfg, &mut recorder, &mut sim::NoObserver).unwrap();
+    let out = Simulation::with_planner(&scene, world, &cfg, Box::new(&mut recorder))
+        .run_to_end(&mut sim::NoObserver);
     eprintln!(
         "recorded run: {:?}, completeness {:.3}, {} planning steps, {} saved",
         out.result.termination,

@@ -311,6 +311,45 @@ fn count_within(key: &str, v: u64, lo: u64, hi: u64) -> Result<()> {
     }
 }
 
+impl MapConfig {
+    /// The `map` section's own checks (those that relate it to other sections stay in
+    /// [`Config::validate`]).
+    fn validate(&self) -> Result<()> {
+        positive("map.voxel_m", self.voxel_m)?;
+        within("map.voxel_m", self.voxel_m, 0.01, 1.0)?;
+        non_negative("map.margin_m", self.margin_m)?;
+        non_negative("map.band_min_m", self.band_min_m)?;
+        positive("map.band_max_m", self.band_max_m)?;
+        if self.band_max_m <= self.band_min_m + self.voxel_m {
+            return Err(Error::usage(format!(
+                "config key `map.band_max_m` ({}) must exceed `map.band_min_m` ({}) by more than one voxel",
+                self.band_max_m, self.band_min_m
+            )));
+        }
+        positive("map.log_odds_hit", self.log_odds_hit as f64)?;
+        if self.log_odds_miss.is_nan() || self.log_odds_miss >= 0.0 {
+            return Err(Error::usage(format!(
+                "config key `map.log_odds_miss` must be negative, got {}",
+                self.log_odds_miss
+            )));
+        }
+        if !(self.log_odds_min < 0.0 && self.log_odds_max > 0.0) {
+            return Err(Error::usage(
+                "config keys `map.log_odds_min` and `map.log_odds_max` must be negative and positive",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.column_known_fraction) {
+            return Err(Error::usage(format!(
+                "config key `map.column_known_fraction` must lie in [0, 1], got {}",
+                self.column_known_fraction
+            )));
+        }
+        non_negative("map.inflation_margin_m", self.inflation_margin_m)?;
+        positive("map.frontier_segment_max_m", self.frontier_segment_max_m)?;
+        Ok(())
+    }
+}
+
 impl ThpConfig {
     fn validate(&self) -> Result<()> {
         for (key, v) in [
@@ -430,7 +469,16 @@ fn default_tree() -> toml::Table {
 
 impl Config {
     /// Builds a config from the defaults, an optional TOML file, and `key=value` overrides, in that
-    /// order, then validates it.
+    /// order, then validates it. A bad key or value is a usage error naming the dotted key.
+    ///
+    /// ```
+    /// use tensorscout::Config;
+    /// let cfg = Config::load(None, &["map.voxel_m=0.05".to_string()]).unwrap();
+    /// assert_eq!(cfg.map.voxel_m, 0.05);
+    /// let e = Config::load(None, &["map.voxel_m=-1".to_string()]).unwrap_err();
+    /// assert_eq!(e.exit_code(), 2);
+    /// assert!(e.to_string().contains("map.voxel_m"));
+    /// ```
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
         let mut tree = default_tree();
         if let Some(path) = file {
@@ -528,40 +576,7 @@ impl Config {
         count_within("log.chunk_size_kb", self.log.chunk_size_kb, 1, 65_536)?;
         positive("scene.wall_height_m", self.scene.wall_height_m)?;
         positive("scene.max_extent_m", self.scene.max_extent_m)?;
-        positive("map.voxel_m", self.map.voxel_m)?;
-        within("map.voxel_m", self.map.voxel_m, 0.01, 1.0)?;
-        non_negative("map.margin_m", self.map.margin_m)?;
-        non_negative("map.band_min_m", self.map.band_min_m)?;
-        positive("map.band_max_m", self.map.band_max_m)?;
-        if self.map.band_max_m <= self.map.band_min_m + self.map.voxel_m {
-            return Err(Error::usage(format!(
-                "config key `map.band_max_m` ({}) must exceed `map.band_min_m` ({}) by more than one voxel",
-                self.map.band_max_m, self.map.band_min_m
-            )));
-        }
-        positive("map.log_odds_hit", self.map.log_odds_hit as f64)?;
-        if self.map.log_odds_miss.is_nan() || self.map.log_odds_miss >= 0.0 {
-            return Err(Error::usage(format!(
-                "config key `map.log_odds_miss` must be negative, got {}",
-                self.map.log_odds_miss
-            )));
-        }
-        if !(self.map.log_odds_min < 0.0 && self.map.log_odds_max > 0.0) {
-            return Err(Error::usage(
-                "config keys `map.log_odds_min` and `map.log_odds_max` must be negative and positive",
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.map.column_known_fraction) {
-            return Err(Error::usage(format!(
-                "config key `map.column_known_fraction` must lie in [0, 1], got {}",
-                self.map.column_known_fraction
-            )));
-        }
-        non_negative("map.inflation_margin_m", self.map.inflation_margin_m)?;
-        positive(
-            "map.frontier_segment_max_m",
-            self.map.frontier_segment_max_m,
-        )?;
+        self.map.validate()?;
         let c = &self.camera;
         for (key, v) in [
             ("camera.hfov_deg", c.hfov_deg),

@@ -4,7 +4,23 @@
 //! Data flows one way through the stages, one module each:
 //! `scene` (mesh, ground truth) → `sensor` (depth frames) → `map` (occupancy voxels, 2D layers,
 //! frontiers) → `field` (tensor field and its topology) → `plan` (goals and paths) → `sim` (robot,
-//! motion, the step loop, metrics). `render` draws pictures of any of them.
+//! motion, the step loop, metrics) → `log`, `bench`, `render` (run logs, batch runs, pictures) → the
+//! binary's `cli`. A module uses only its own layer, earlier ones and the foundations (`config`,
+//! `error`, `grid`, `util`); `tests/layers.rs` checks it, and ARCHITECTURE.md draws the graph.
+//! Implementation modules are private to the crate; each layer re-exports what callers need.
+//!
+//! One exploration from code:
+//!
+//! ```no_run
+//! use tensorscout::{plan::PlannerKind, scene, sim, Config};
+//! # fn main() -> tensorscout::Result<()> {
+//! let cfg = Config::default();
+//! let scene = scene::load("scenes/apartment_small.obj".as_ref(), &cfg.scene)?;
+//! let world = sim::World::new(&scene, &cfg, None)?;
+//! let out = sim::run(&scene, world, &cfg, PlannerKind::Thp, &mut sim::NoObserver)?;
+//! println!("completeness {:.3}", out.result.completeness);
+//! # Ok(()) }
+//! ```
 
 pub mod bench;
 pub mod config;

@@ -271,6 +271,7 @@ fn log_runs_writes_one_verifiable_log_per_run() {
 /// confidence intervals and the paired comparison; rows do not depend on the observable-set cache
 /// (a cold cache and a warm one give the same rows); `--scene-spawn` keeps the scene's spawn.
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn seeds_pair_starts_across_planners() {
     let t = tmp();
     let a = scene("apartment_small.obj");

@@ -35,49 +35,6 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// A closed 6 × 4 m room with a 2.5 m wall height, as OBJ (floor + four wall boxes).
-fn room_obj() -> String {
-    let mut v = Vec::new();
-    let mut f = Vec::new();
-    let mut cuboid = |x0: f64, y0: f64, x1: f64, y1: f64, z1: f64| {
-        let base = v.len() + 1;
-        for (x, y, z) in [
-            (x0, y0, 0.0),
-            (x1, y0, 0.0),
-            (x1, y1, 0.0),
-            (x0, y1, 0.0),
-            (x0, y0, z1),
-            (x1, y0, z1),
-            (x1, y1, z1),
-            (x0, y1, z1),
-        ] {
-            v.push(format!("v {x} {y} {z}"));
-        }
-        for q in [
-            [0, 1, 2, 3],
-            [4, 5, 6, 7],
-            [0, 1, 5, 4],
-            [1, 2, 6, 5],
-            [2, 3, 7, 6],
-            [3, 0, 4, 7],
-        ] {
-            f.push(format!(
-                "f {} {} {} {}",
-                base + q[0],
-                base + q[1],
-                base + q[2],
-                base + q[3]
-            ));
-        }
-    };
-    cuboid(0.0, 0.0, 6.0, 4.0, 0.0); // floor (flat)
-    cuboid(0.0, 0.0, 6.0, 0.1, 2.5);
-    cuboid(0.0, 3.9, 6.0, 4.0, 2.5);
-    cuboid(0.0, 0.0, 0.1, 4.0, 2.5);
-    cuboid(5.9, 0.0, 6.0, 4.0, 2.5);
-    format!("{}\n{}\n", v.join("\n"), f.join("\n"))
-}
-
 #[test]
 fn config_default_prints_every_section() {
     let o = run(&["config", "default"]);
@@ -94,7 +51,7 @@ fn config_default_prints_every_section() {
 #[test]
 fn bad_flags_and_config_are_usage_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj());
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let s = scene.to_str().unwrap();
     assert_fails(
         &run(&["explore", "--scene", s, "--set", "map.voxl_m=0.1"]),
@@ -154,7 +111,7 @@ fn bad_scenes_fail_with_one_line_naming_the_file() {
 #[test]
 fn bad_spawns_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj());
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let s = scene.to_str().unwrap();
     // Inside the wall at x = 0..0.1.
     assert_fails(
@@ -172,7 +129,7 @@ fn bad_spawns_are_named() {
 #[test]
 fn output_in_missing_folder_fails_before_running() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj());
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let png = dir.path().join("no/such/dir/out.png");
     assert_fails(
         &run(&[
@@ -190,7 +147,7 @@ fn output_in_missing_folder_fails_before_running() {
 #[test]
 fn existing_output_is_not_overwritten_without_force() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj());
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let png = write(dir.path(), "mine.png", "precious");
     let o = run(&[
         "scene",
@@ -225,7 +182,7 @@ fn without_wall_clock(mut v: serde_json::Value) -> serde_json::Value {
 #[test]
 fn explore_json_has_the_contract_keys_and_is_deterministic() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj());
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let s = scene.to_str().unwrap();
     let a = explore_json(s, "1");
     for key in [
@@ -288,7 +245,7 @@ fn every_example_config_loads() {
 fn y_up_flag_rotates_the_mesh() {
     let dir = tempfile::tempdir().unwrap();
     // The test room with y and z swapped: (x, y, z) -> (x, z, -y), i.e. written y-up.
-    let y_up: String = room_obj()
+    let y_up: String = common::room_obj(None)
         .lines()
         .map(|l| {
             let parts: Vec<&str> = l.split_whitespace().collect();

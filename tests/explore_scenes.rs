@@ -1,7 +1,8 @@
 //! GREEDY explores every shipped scene to the end: complete, nearly all the explorable volume and
 //! surface observed, and never a collision. THP, NBV-TSP and TENSOR with its GREEDY hand-over finish
 //! every shipped scene without a collision, an error or a stall, and THP reaches completeness 0.95 on
-//! each. TENSOR as published never collides, and a run of it that ends `stuck` says why.
+//! each. TENSOR as published never collides, and a run of it that ends `stuck` says why. Every planner finishes a sample of
+//! real plans (TENSOR with its hand-over). All heavy tier (see TESTING.md).
 
 mod common;
 
@@ -11,6 +12,7 @@ use tensorscout::sim::{self, Termination, World};
 use tensorscout::Config;
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn greedy_completes_every_shipped_scene() {
     let cfg = Config::default();
     let mut failures = Vec::new();
@@ -59,14 +61,33 @@ fn finishes_every_scene_with(
     planner: PlannerKind,
     min_completeness: f64,
 ) -> Vec<String> {
+    finishes(
+        &common::shipped_scenes(),
+        cfg,
+        planner,
+        min_completeness,
+        false,
+    )
+}
+
+/// [`finishes_every_scene_with`] over the scenes at `paths`; with `stuck_ok` a run may also end
+/// `stuck` (the other conditions still hold).
+fn finishes(
+    paths: &[std::path::PathBuf],
+    cfg: &Config,
+    planner: PlannerKind,
+    min_completeness: f64,
+    stuck_ok: bool,
+) -> Vec<String> {
     let cfg = cfg.clone();
     let mut failures = Vec::new();
-    for path in common::shipped_scenes() {
-        let scene = scene::load(&path, &cfg.scene).unwrap();
+    for path in paths {
+        let scene = scene::load(path, &cfg.scene).unwrap();
         let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
         let out = sim::run(&scene, world, &cfg, planner, &mut sim::NoObserver).unwrap();
         let r = &out.result;
-        let finished = matches!(r.termination, Termination::Complete | Termination::Budget);
+        let finished = matches!(r.termination, Termination::Complete | Termination::Budget)
+            || (stuck_ok && r.termination == Termination::Stuck);
         if !finished || r.collisions != 0 || r.completeness < min_completeness {
             failures.push(format!(
                 "{} {}: {} completeness {:.3} collisions {}",
@@ -82,12 +103,14 @@ fn finishes_every_scene_with(
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn thp_finishes_every_shipped_scene() {
     let failures = finishes_every_scene(PlannerKind::Thp, 0.95);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn tensor_with_its_greedy_fallback_finishes_every_shipped_scene() {
     let mut cfg = Config::default();
     cfg.tensor.fallback = true;
@@ -100,6 +123,7 @@ fn tensor_with_its_greedy_fallback_finishes_every_shipped_scene() {
 /// routing graph had no edge with gain (`stuck_no_route`), or nothing new was seen for
 /// `sim.stuck_timeout_s`.
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn tensor_as_published_reports_why_it_stops() {
     let cfg = Config::default();
     assert!(
@@ -149,7 +173,31 @@ fn tensor_as_published_reports_why_it_stops() {
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn nbv_finishes_every_shipped_scene() {
     let failures = finishes_every_scene(PlannerKind::Nbv, 0.0);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Every planner on a sample of real apartment plans (`common::sample_plans`, each from its own
+/// start): no error, no collision, and at least 0.75 of the observable volume seen (GREEDY, the
+/// lowest, sees 0.80 on the smallest of them). A run may end `stuck` here: real plans can hold
+/// frontiers a planner cannot reach or see (THP once ended `stuck` on plan_115c3a7a64 at 0.93).
+#[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
+fn every_planner_finishes_a_sample_of_real_plans() {
+    let plans = common::sample_plans();
+    let mut failures = Vec::new();
+    for planner in [
+        PlannerKind::Thp,
+        PlannerKind::Tensor,
+        PlannerKind::Nbv,
+        PlannerKind::Greedy,
+    ] {
+        let mut cfg = Config::default();
+        // TENSOR with its GREEDY hand-over: as published it may end `stuck` where the method fails.
+        cfg.tensor.fallback = planner == PlannerKind::Tensor;
+        failures.extend(finishes(&plans, &cfg, planner, 0.75, true));
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -242,6 +242,7 @@ fn python_has(modules: &[&str]) -> bool {
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn glb_written_by_trimesh_loads_z_up() {
     if !python_has(&["numpy", "trimesh"]) {
         eprintln!(

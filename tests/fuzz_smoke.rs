@@ -27,46 +27,55 @@ fn smoke(format: Format, cases: u64) {
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_obj() {
     smoke(Format::Obj, 400);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_ply() {
     smoke(Format::Ply, 300);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_pgm() {
     smoke(Format::Pgm, 300);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_map_yaml() {
     smoke(Format::MapYaml, 300);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_houseexpo() {
     smoke(Format::HouseExpo, 300);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_config_toml() {
     smoke(Format::ConfigToml, 400);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_set() {
     smoke(Format::Set, 400);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_mcap() {
     smoke(Format::Mcap, 300);
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn fuzz_smoke_glb() {
     smoke(Format::Glb, 300);
 }

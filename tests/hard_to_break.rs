@@ -41,52 +41,6 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// A closed 6 × 4 m room, 2.5 m walls, as OBJ (floor + four wall boxes), with an optional spawn.
-fn room_obj(spawn: Option<&str>) -> String {
-    let mut s = spawn
-        .map(|p| format!("# tensorscout spawn {p}\n"))
-        .unwrap_or_default();
-    let mut n = 0;
-    for (x0, y0, x1, y1, z1) in [
-        (0.0, 0.0, 6.0, 4.0, 0.0),
-        (0.0, 0.0, 6.0, 0.1, 2.5),
-        (0.0, 3.9, 6.0, 4.0, 2.5),
-        (0.0, 0.0, 0.1, 4.0, 2.5),
-        (5.9, 0.0, 6.0, 4.0, 2.5),
-    ] {
-        for (x, y, z) in [
-            (x0, y0, 0.0),
-            (x1, y0, 0.0),
-            (x1, y1, 0.0),
-            (x0, y1, 0.0),
-            (x0, y0, z1),
-            (x1, y0, z1),
-            (x1, y1, z1),
-            (x0, y1, z1),
-        ] {
-            s.push_str(&format!("v {x} {y} {z}\n"));
-        }
-        for q in [
-            [0, 1, 2, 3],
-            [4, 5, 6, 7],
-            [0, 1, 5, 4],
-            [1, 2, 6, 5],
-            [2, 3, 7, 6],
-            [3, 0, 4, 7],
-        ] {
-            s.push_str(&format!(
-                "f {} {} {} {}\n",
-                n + q[0] + 1,
-                n + q[1] + 1,
-                n + q[2] + 1,
-                n + q[3] + 1
-            ));
-        }
-        n += 8;
-    }
-    s
-}
-
 /// Runs a short logged exploration of `scene` into `log`.
 fn explore_logged(scene: &Path, log: &Path, cwd: &Path) -> Output {
     bin()
@@ -136,7 +90,7 @@ fn closed_stdout_ends_quietly() {
 #[test]
 fn full_stdout_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj(None));
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     for args in [
         vec!["config".to_string(), "default".to_string()],
         vec![
@@ -158,7 +112,7 @@ fn full_stdout_is_an_error() {
 #[test]
 fn png_and_log_on_one_path_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj(None));
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let p = dir.path().join("out.png");
     let o = bin()
         .args(["explore", "--scene"])
@@ -180,13 +134,16 @@ fn png_and_log_on_one_path_refused() {
         .output()
         .unwrap();
     assert_fails(&o, 2, "--log and --scene name the same file");
-    assert_eq!(std::fs::read_to_string(&scene).unwrap(), room_obj(None));
+    assert_eq!(
+        std::fs::read_to_string(&scene).unwrap(),
+        common::room_obj(None)
+    );
 }
 
 #[test]
 fn png_problems_found_before_the_run() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj(None));
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     // An extension the PNG writer cannot write: a usage error before anything runs.
     let o = bin()
         .args(["explore", "--scene"])
@@ -288,7 +245,7 @@ fn bench_merge_reports_conflicts_on_the_command_line() {
 #[test]
 fn bench_out_with_user_files_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj(None));
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let out = dir.path().join("out");
     std::fs::create_dir(&out).unwrap();
     write(&out, "summary.md", "my own notes\n");
@@ -403,7 +360,7 @@ fn costly_flag_values_are_bounded() {
 #[test]
 fn negative_option_values_accepted() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "room.obj", &room_obj(None));
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
     let o = bin()
         .args(["explore", "--scene"])
         .arg(&scene)
@@ -523,7 +480,7 @@ fn verify_finds_a_moved_scene_from_any_folder() {
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("a");
     std::fs::create_dir(&a).unwrap();
-    write(&a, "room.obj", &room_obj(None));
+    write(&a, "room.obj", &common::room_obj(None));
     // The scene path is stored as given (relative to the working folder `a`).
     let o = explore_logged(Path::new("room.obj"), Path::new("run.mcap"), &a);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -564,7 +521,7 @@ fn records(bytes: &[u8]) -> Vec<(u8, usize, usize)> {
 #[test]
 fn log_without_identity_is_a_loss() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "room.obj", &room_obj(None));
+    write(dir.path(), "room.obj", &common::room_obj(None));
     let o = explore_logged(Path::new("room.obj"), Path::new("run.mcap"), dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     let bytes = std::fs::read(dir.path().join("run.mcap")).unwrap();
@@ -590,7 +547,7 @@ fn log_without_identity_is_a_loss() {
 #[test]
 fn damaged_record_outside_chunks_resyncs() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "room.obj", &room_obj(None));
+    write(dir.path(), "room.obj", &common::room_obj(None));
     let o = bin()
         .current_dir(dir.path())
         .args([
@@ -641,7 +598,7 @@ fn damaged_record_outside_chunks_resyncs() {
 #[test]
 fn replay_render_refuses_a_folder_with_frames() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "room.obj", &room_obj(None));
+    write(dir.path(), "room.obj", &common::room_obj(None));
     let o = explore_logged(Path::new("room.obj"), Path::new("run.mcap"), dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     let frames = dir.path().join("frames");
@@ -680,7 +637,7 @@ fn misleading_messages_fixed() {
     // A folder and a file without extension.
     let o = bin().args(["scene", "info"]).arg(d).output().unwrap();
     assert_fails(&o, 2, "is a folder, not a scene file");
-    let noext = write(d, "room", &room_obj(None));
+    let noext = write(d, "room", &common::room_obj(None));
     let o = bin().args(["scene", "info"]).arg(&noext).output().unwrap();
     assert_fails(&o, 2, "the scene file has no extension");
     // A HouseExpo coordinate of 1e300 prints a short number.
@@ -693,7 +650,7 @@ fn misleading_messages_fixed() {
     assert_fails(&o, 1, "plan extent 1.000e300 m exceeds");
     assert!(stderr(&o).len() < 300, "{}", stderr(&o));
     // A spawn line inside a wall names the file.
-    let walled = write(d, "walled.obj", &room_obj(Some("0.05 2 0")));
+    let walled = write(d, "walled.obj", &common::room_obj(Some("0.05 2 0")));
     let o = bin().args(["scene", "info"]).arg(&walled).output().unwrap();
     assert_fails(
         &o,
@@ -719,7 +676,7 @@ fn bad_mesh_data_warned_or_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // Faces with fewer than 3 vertices: a one-line warning naming the file and line.
-    let mut text = room_obj(None);
+    let mut text = common::room_obj(None);
     text.push_str("f 1 2\n");
     let short = write(d, "short.obj", &text);
     let o = bin().args(["scene", "info"]).arg(&short).output().unwrap();

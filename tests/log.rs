@@ -273,11 +273,13 @@ fn check_official_schemas(planner: &str) {
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn thp_log_has_official_schemas_and_every_message_validates() {
     check_official_schemas("thp");
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn tensor_log_has_official_schemas_and_every_message_validates() {
     check_official_schemas("tensor");
 }

@@ -25,6 +25,7 @@ const PLANS: [&str; 3] = [
 ];
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn halving_the_spacing_changes_the_volume_by_under_one_percent() {
     let cfg = Config::default();
     let mut report = Vec::new();
@@ -56,6 +57,7 @@ fn halving_the_spacing_changes_the_volume_by_under_one_percent() {
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn greedy_explores_inside_the_observable_set_on_real_plans() {
     let cfg = Config::default();
     for rel in PLANS {

@@ -35,6 +35,7 @@ fn result_json(
 }
 
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn thp_and_greedy_runs_do_not_depend_on_the_thread_count() {
     for (planner, renderer) in [
         (PlannerKind::Thp, DepthRenderer::Raster),

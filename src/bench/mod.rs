@@ -6,10 +6,10 @@
 //! function of the sorted rows, so a sharded batch merged with [`merge`] and an unsharded one give
 //! the same files (apart from wall-clock fields).
 
-pub mod plot;
-pub mod stats;
-pub mod store;
-pub mod summary;
+pub(crate) mod plot;
+pub(crate) mod stats;
+pub(crate) mod store;
+pub(crate) mod summary;
 
 use crate::config::SpawnMode;
 use crate::plan::PlannerKind;
@@ -20,7 +20,7 @@ use std::collections::BTreeSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-pub use store::{BenchRow, RunKey, RunStatus};
+pub use store::{BenchRow, RunKey, RunStatus, RESULTS_JSONL};
 
 /// Scene file extensions `--scenes DIR` picks up.
 pub const SCENE_EXTENSIONS: [&str; 7] = ["obj", "ply", "gltf", "glb", "yaml", "yml", "json"];

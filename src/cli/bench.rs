@@ -74,7 +74,7 @@ fn check_out(out: &std::path::Path, force: bool, resume: bool) -> tensorscout::R
     if force {
         return Ok(());
     }
-    let jsonl = out.join(bench::store::RESULTS_JSONL);
+    let jsonl = out.join(bench::RESULTS_JSONL);
     if jsonl.exists() {
         return if resume {
             Ok(())
@@ -244,7 +244,7 @@ fn run_batch(a: RunArgs) -> Result<()> {
     bar.bar.set_message("0 failed");
     if a.force {
         // Replace: the earlier rows go, so the batch starts afresh.
-        let jsonl = spec.out.join(bench::store::RESULTS_JSONL);
+        let jsonl = spec.out.join(bench::RESULTS_JSONL);
         if jsonl.exists() {
             std::fs::remove_file(&jsonl).map_err(|e| Error::io(&jsonl, e))?;
         }

@@ -284,19 +284,8 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         render::draw_run(&output.map, &output.ground_truth, &output.trajectory).save(png)?;
     }
     if let Some(dir) = &args.map_out {
-        use tensorscout::map::CellState as M;
-        use tensorscout::scene::rosmap::{self, CellState as R};
-        let states: Vec<R> = output
-            .map
-            .cell_states()
-            .iter()
-            .map(|s| match s {
-                M::Free => R::Free,
-                M::Obstacle => R::Occupied,
-                M::Unknown => R::Unknown,
-            })
-            .collect();
-        let (yaml, pgm) = rosmap::ros_map_files(output.map.grid(), &states);
+        use tensorscout::scene::rosmap;
+        let (yaml, pgm) = rosmap::ros_map_files(output.map.grid(), output.map.cell_states());
         write_file(&dir.join(rosmap::MAP_PGM), pgm.as_slice())?;
         write_file(&dir.join(rosmap::MAP_YAML), yaml.as_bytes())?;
     }

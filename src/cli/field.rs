@@ -3,8 +3,11 @@
 use super::{check_distinct, check_output, emit, note, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
+use serde::Serialize;
 use std::path::PathBuf;
-use tensorscout::field::{self, draw::draw_field};
+use std::time::Instant;
+use tensorscout::field::{self, ControlCounts, DegenerateKind, TensorField, UpdateStats};
+use tensorscout::render::draw_field;
 use tensorscout::scene;
 use tensorscout::{render, Pose2};
 
@@ -55,8 +58,10 @@ pub fn run(args: FieldArgs) -> Result<()> {
     let gt = scene::build_ground_truth(&scene, args.spawn, &cfg)?;
     let Known::Full = args.known;
     let surface = gt.surface_columns();
-    let (mut tensor_field, report) =
-        field::field_report(&gt.grid, &surface, gt.obstacle_columns(), &cfg.field)?;
+    let t = Instant::now();
+    let (mut tensor_field, stats) =
+        field::full_field(&gt.grid, &surface, gt.obstacle_columns(), &cfg.field)?;
+    let report = FieldReport::of(&tensor_field, &stats, t.elapsed().as_secs_f64() * 1e3);
     let comparison = args
         .reference
         .then(|| field::max_orientation_difference_vs_reference(&mut tensor_field));
@@ -67,7 +72,7 @@ pub fn run(args: FieldArgs) -> Result<()> {
         draw_field(&mut canvas.image, &tensor_field, scale, 4, &|i| {
             gt.in_region(i) && !gt.obstacle_column(i)
         });
-        use tensorscout::field::{draw as d, DegenerateKind};
+        use tensorscout::render::field as d;
         let graph = tensor_field.graph();
         canvas.note(d::GLYPH);
         for n in &graph.nodes {
@@ -83,7 +88,7 @@ pub fn run(args: FieldArgs) -> Result<()> {
         if graph
             .edges
             .iter()
-            .any(|e| e.kind == field::topology::EdgeKind::ShortestPath)
+            .any(|e| e.kind == field::EdgeKind::ShortestPath)
         {
             canvas.note(d::PAIRING);
         }
@@ -128,4 +133,70 @@ pub fn run(args: FieldArgs) -> Result<()> {
         emit(&o)?;
     }
     Ok(())
+}
+
+/// One degenerate point in a report.
+#[derive(Clone, Debug, Serialize)]
+pub struct PointReport {
+    pub id: u64,
+    pub x: f64,
+    pub y: f64,
+    #[serde(rename = "type")]
+    pub kind: DegenerateKind,
+}
+
+/// Timings of the field's one update, milliseconds.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReportTimings {
+    pub sampling: f64,
+    pub field: f64,
+    pub topology: f64,
+    pub total: f64,
+}
+
+/// What `tensorscout field --json` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct FieldReport {
+    pub constraints: usize,
+    pub wedges: usize,
+    pub trisectors: usize,
+    pub other_points: usize,
+    pub graph_edges: usize,
+    pub separatrices: usize,
+    pub control: ControlCounts,
+    pub timings_ms: ReportTimings,
+    pub points: Vec<PointReport>,
+}
+
+impl FieldReport {
+    /// The report of a field after its last update.
+    pub fn of(field: &TensorField, stats: &UpdateStats, total_ms: f64) -> Self {
+        let graph = field.graph();
+        let (wedges, trisectors) = graph.counts();
+        FieldReport {
+            constraints: field.surface_constraint_count(),
+            wedges,
+            trisectors,
+            other_points: graph.nodes.len() - wedges - trisectors,
+            graph_edges: graph.edges.len(),
+            separatrices: graph.separatrices.len(),
+            control: field.control_counts(),
+            timings_ms: ReportTimings {
+                sampling: stats.sampling_ms,
+                field: stats.field_ms,
+                topology: stats.topology_ms,
+                total: total_ms,
+            },
+            points: graph
+                .nodes
+                .iter()
+                .map(|n| PointReport {
+                    id: n.id,
+                    x: n.x,
+                    y: n.y,
+                    kind: n.kind,
+                })
+                .collect(),
+        }
+    }
 }

@@ -156,6 +156,7 @@ pub fn pathline(
 }
 
 /// Mean absolute change of heading between consecutive steps of a polyline, radians per step.
+#[cfg(test)]
 pub fn mean_turn(line: &[Point2<f64>]) -> f64 {
     let headings: Vec<f64> = line
         .windows(2)

@@ -34,21 +34,19 @@
 //! Tests (`tests` below) check on axis-aligned layouts that points are few, sit at room centres and
 //! junctions, and keep their position and id when more of the scene is revealed.
 
-pub mod advect;
-pub mod constraints;
-pub mod control;
-pub mod degenerate;
-pub mod draw;
+pub(crate) mod advect;
+pub(crate) mod constraints;
+pub(crate) mod control;
+pub(crate) mod degenerate;
 pub mod eval;
 #[cfg(test)]
 pub(crate) mod synth;
-pub mod timevary;
-pub mod topology;
+pub(crate) mod timevary;
+pub(crate) mod topology;
 
 pub use advect::{pathline, StopConditions, StopReason};
 pub use constraints::{path_constraints, Constraint, SurfaceSampler};
 pub use degenerate::{DegenerateKind, DegeneratePoint};
-pub use draw::draw_field;
 pub use eval::{FieldGrid, FieldLevel, Kernel, TensorSample};
 pub use timevary::{biharmonic_window, linear_window, SpaceTimeParams, TimeVaryingField};
 pub use topology::{EdgeKind, TopologyGraph};
@@ -575,91 +573,24 @@ fn ms(t: Instant) -> f64 {
 /// Euclidean distance from every cell centre to the nearest `true` cell centre, metres (the exact
 /// transform the ground truth uses); `f64::INFINITY` where there is none.
 pub fn obstacle_distance(grid: &GridSpec, mask: &[bool]) -> Vec<f64> {
-    crate::scene::ground_truth::distance_transform(mask, grid.nx, grid.ny)
+    crate::grid::distance_transform(mask, grid.nx, grid.ny)
         .into_iter()
         .map(|d2| d2.sqrt() * grid.res)
         .collect()
 }
 
-/// One degenerate point in a report.
-#[derive(Clone, Debug, Serialize)]
-pub struct PointReport {
-    pub id: u64,
-    pub x: f64,
-    pub y: f64,
-    #[serde(rename = "type")]
-    pub kind: DegenerateKind,
-}
-
-/// Timings of [`field_report`], milliseconds.
-#[derive(Clone, Debug, Serialize)]
-pub struct ReportTimings {
-    pub sampling: f64,
-    pub field: f64,
-    pub topology: f64,
-    pub total: f64,
-}
-
-/// What `tensorscout field --json` prints.
-#[derive(Clone, Debug, Serialize)]
-pub struct FieldReport {
-    pub constraints: usize,
-    pub wedges: usize,
-    pub trisectors: usize,
-    pub other_points: usize,
-    pub graph_edges: usize,
-    pub separatrices: usize,
-    pub control: ControlCounts,
-    pub timings_ms: ReportTimings,
-    pub points: Vec<PointReport>,
-}
-
-impl FieldReport {
-    /// The report of a field after its last update.
-    pub fn of(field: &TensorField, stats: &UpdateStats, total_ms: f64) -> Self {
-        let (wedges, trisectors) = field.graph.counts();
-        FieldReport {
-            constraints: field.surface_constraint_count(),
-            wedges,
-            trisectors,
-            other_points: field.graph.nodes.len() - wedges - trisectors,
-            graph_edges: field.graph.edges.len(),
-            separatrices: field.graph.separatrices.len(),
-            control: field.control,
-            timings_ms: ReportTimings {
-                sampling: stats.sampling_ms,
-                field: stats.field_ms,
-                topology: stats.topology_ms,
-                total: total_ms,
-            },
-            points: field
-                .graph
-                .nodes
-                .iter()
-                .map(|n| PointReport {
-                    id: n.id,
-                    x: n.x,
-                    y: n.y,
-                    kind: n.kind,
-                })
-                .collect(),
-        }
-    }
-}
-
-/// The field of a fully observed layout (surface and obstacle layers of `grid`), in one key frame.
-pub fn field_report(
+/// The field of a fully observed layout (surface and obstacle layers of `grid`), in one key frame,
+/// with what the update measured.
+pub fn full_field(
     grid: &GridSpec,
     surface: &[bool],
     obstacle: &[bool],
     cfg: &FieldConfig,
-) -> Result<(TensorField, FieldReport)> {
+) -> Result<(TensorField, UpdateStats)> {
     let inputs = MaskInputs::new(grid, surface, obstacle, None)?;
-    let t = Instant::now();
     let mut field = TensorField::new(*grid, cfg);
     let stats = field.update(&inputs)?;
-    let report = FieldReport::of(&field, &stats, ms(t));
-    Ok((field, report))
+    Ok((field, stats))
 }
 
 /// Fast field against the brute-force reference on the planning field.

@@ -15,11 +15,11 @@
 //! and renders.
 
 pub mod reader;
-pub mod record;
+pub(crate) mod record;
 pub mod replay;
-pub mod topics;
+pub(crate) mod topics;
 pub mod tum;
-pub mod writer;
+pub(crate) mod writer;
 
 pub use reader::{read_log, LogContents, LoggedMessage};
 pub use record::{Recorder, Sink};
@@ -110,61 +110,9 @@ impl RunIdentity {
     }
 }
 
-const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
-/// Standard base64 with padding (how Foxglove's JSON encoding carries `bytes` fields).
-pub fn base64_encode(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                out.push(B64[(n >> (18 - 6 * i) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
-/// Inverse of [`base64_encode`]; `None` on a character outside the alphabet.
-pub fn base64_decode(text: &str) -> Option<Vec<u8>> {
-    let mut out = Vec::with_capacity(text.len() / 4 * 3);
-    let mut acc = 0u32;
-    let mut bits = 0;
-    for c in text.bytes().filter(|&c| c != b'=') {
-        let v = B64.iter().position(|&a| a == c)? as u32;
-        acc = (acc << 6) | v;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-        }
-    }
-    Some(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_known_answers_and_round_trip() {
-        assert_eq!(base64_encode(b""), "");
-        assert_eq!(base64_encode(b"f"), "Zg==");
-        assert_eq!(base64_encode(b"fo"), "Zm8=");
-        assert_eq!(base64_encode(b"foobar"), "Zm9vYmFy");
-        let bytes: Vec<u8> = (0..=255).collect();
-        assert_eq!(base64_decode(&base64_encode(&bytes)).unwrap(), bytes);
-        assert_eq!(base64_decode("Zm8="), Some(b"fo".to_vec()));
-        assert_eq!(base64_decode("Z!"), None);
-    }
 
     #[test]
     fn identity_round_trips_through_metadata() {

@@ -239,7 +239,7 @@ pub fn depth_message(time_s: f64, frame: &crate::sensor::DepthFrame) -> Value {
     json!({
         "timestamp": stamp(time_s), "frame_id": "camera",
         "width": frame.width, "height": frame.height, "encoding": "32FC1",
-        "step": frame.width * 4, "data": super::base64_encode(&bytes)
+        "step": frame.width * 4, "data": crate::util::base64_encode(&bytes)
     })
 }
 
@@ -277,7 +277,7 @@ pub fn grid_message(time_s: f64, map: &Map) -> Value {
         "column_count": g.nx, "cell_size": {"x": g.res, "y": g.res},
         "row_stride": g.nx * 8, "cell_stride": 8,
         "fields": [{"name": "state", "offset": 0, "type": 7}, {"name": "known", "offset": 4, "type": 7}],
-        "data": super::base64_encode(&data)
+        "data": crate::util::base64_encode(&data)
     })
 }
 
@@ -308,7 +308,7 @@ pub fn field_tensor_message(time_s: f64, field: &TensorField) -> Value {
         "row_stride": g.nx * 12, "cell_stride": 12,
         "fields": [{"name": "a", "offset": 0, "type": 7}, {"name": "b", "offset": 4, "type": 7},
                    {"name": "weight", "offset": 8, "type": 7}],
-        "data": super::base64_encode(&data)
+        "data": crate::util::base64_encode(&data)
     })
 }
 

@@ -383,7 +383,7 @@ fn decode_grid_at(v: &Value, offset: usize) -> Option<LoggedGrid> {
     let nx = v["column_count"].as_u64()? as usize;
     let row_stride = v["row_stride"].as_u64()? as usize;
     let cell_stride = v["cell_stride"].as_u64()? as usize;
-    let data = super::base64_decode(v["data"].as_str()?)?;
+    let data = crate::util::base64_decode(v["data"].as_str()?)?;
     if nx == 0
         || row_stride < nx * cell_stride
         || cell_stride < offset + 4

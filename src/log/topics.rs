@@ -178,6 +178,7 @@ pub const TOPICS: [&Topic; 15] = [
 ];
 
 /// The registry entry named `name`.
+#[cfg(test)]
 pub fn by_name(name: &str) -> Option<&'static Topic> {
     TOPICS.iter().copied().find(|t| t.name == name)
 }

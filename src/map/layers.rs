@@ -2,20 +2,14 @@
 //! traversability, surface cells and frontier cells.
 
 use super::occupancy::{ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
+use super::MapParams;
 use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
-use crate::Config;
 use nalgebra::Point2;
 use std::collections::VecDeque;
 use std::f64::consts::SQRT_2;
 use std::ops::Range;
 
-/// What the robot knows about one floor cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellState {
-    Unknown,
-    Free,
-    Obstacle,
-}
+pub use crate::grid::CellState;
 
 /// A connected piece of frontier, short enough to be one goal.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,8 +23,8 @@ pub struct FrontierSegment {
 }
 
 /// The voxel layers that can block the robot: `[band_min_m, robot.height_m]`.
-pub fn robot_band(grid: &GridSpec, cfg: &Config) -> Range<usize> {
-    grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m)
+pub fn robot_band(grid: &GridSpec, params: &MapParams) -> Range<usize> {
+    grid.layers_in(params.map.band_min_m, params.robot_height_m)
 }
 
 /// Offsets of the cells whose centres lie within `radius` of a cell's centre.
@@ -89,13 +83,13 @@ pub struct Layers {
 
 impl Layers {
     /// All-unknown layers over `grid`.
-    pub fn new(grid: GridSpec, cfg: &Config) -> Layers {
-        let m = &cfg.map;
-        let robot_band = robot_band(&grid, cfg);
+    pub fn new(grid: GridSpec, params: &MapParams) -> Layers {
+        let m = &params.map;
+        let robot_band = robot_band(&grid, params);
         let surface_band = grid.layers_in(m.band_min_m, m.band_max_m);
         let min_known =
             ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
-        let radius = cfg.robot.radius_m + m.inflation_margin_m;
+        let radius = params.robot_radius_m + m.inflation_margin_m;
         let proximity_radius = radius + m.proximity_band_m;
         // A box lies within half a cell diagonal of its cell's centre.
         let reach_offsets = disc_offsets(&grid, proximity_radius + 0.5 * SQRT_2 * grid.res);
@@ -493,6 +487,7 @@ impl Layers {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Config;
 
     fn layers(nx: usize, ny: usize) -> Layers {
         let grid = GridSpec {
@@ -509,7 +504,7 @@ mod tests {
         cfg.map.inflation_margin_m = 0.04;
         cfg.map.proximity_band_m = 0.3;
         cfg.map.frontier_min_cells = 3;
-        Layers::new(grid, &cfg)
+        Layers::new(grid, &MapParams::from(&cfg))
     }
 
     /// Sets cell `(x, y)`'s state; an Obstacle gets `b` as its box, else the point at the cell centre.

@@ -1,7 +1,7 @@
 //! The map: 3D occupancy voxels and the 2D layers derived from them, updated one depth frame at a time.
 
-pub mod layers;
-pub mod occupancy;
+pub(crate) mod layers;
+pub(crate) mod occupancy;
 
 pub use layers::{CellState, FrontierSegment, Layers};
 pub use occupancy::{LogOdds, ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
@@ -27,16 +27,36 @@ pub struct Map {
     layers: Layers,
 }
 
+/// What the map takes from the config: its own section and the robot's size (the inflation radius
+/// and the height band the robot sweeps). `Map::new(grid, &cfg)` builds it from a whole `Config`.
+#[derive(Clone, Debug)]
+pub struct MapParams {
+    pub map: crate::config::MapConfig,
+    pub robot_radius_m: f64,
+    pub robot_height_m: f64,
+}
+
+impl From<&Config> for MapParams {
+    fn from(cfg: &Config) -> MapParams {
+        MapParams {
+            map: cfg.map.clone(),
+            robot_radius_m: cfg.robot.radius_m,
+            robot_height_m: cfg.robot.height_m,
+        }
+    }
+}
+
 impl Map {
     /// An all-unknown map over `grid`.
-    pub fn new(grid: GridSpec, cfg: &Config) -> Map {
+    pub fn new(grid: GridSpec, params: impl Into<MapParams>) -> Map {
+        let params = params.into();
         Map {
             occupancy: Occupancy::new(
                 grid,
-                LogOdds::from_config(&cfg.map),
-                layers::robot_band(&grid, cfg),
+                LogOdds::from_config(&params.map),
+                layers::robot_band(&grid, &params),
             ),
-            layers: Layers::new(grid, cfg),
+            layers: Layers::new(grid, &params),
         }
     }
 
@@ -117,6 +137,43 @@ impl Map {
             }
         }
         found
+    }
+
+    /// The hazard point nearest to `p` within `max_m`: a known obstacle surface point (see
+    /// [`Map::nearest_obstacle_point`]: measured to the obstacle boxes, which hold the ray hits), or the
+    /// nearest point of a never-seen cell grown by half a cell. The camera faces forward and sees nothing
+    /// nearer than its minimum range, so a wall beside the robot may be unknown, and the cell holding
+    /// its face may count as seen through the free part of its voxels; the guard keeps the disc that far
+    /// from cells the robot has no evidence about, as it keeps it off known obstacles.
+    pub fn nearest_hazard(&self, p: Point2<f64>, max_m: f64) -> Option<Point2<f64>> {
+        let mut best = self.nearest_obstacle_point(p, max_m);
+        let mut best_d2 = best.map_or(max_m * max_m, |o| (o - p).norm_squared());
+        let grid = self.grid();
+        let half = 1.0 * grid.res;
+        let c = grid.cell_at(p.x, p.y);
+        let r = (max_m / grid.res).ceil() as i32 + 1;
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let n = Cell::new(c.x + dx, c.y + dy);
+                let Some(i) = grid.checked_index(n) else {
+                    continue;
+                };
+                if self.is_seen(i) {
+                    continue;
+                }
+                let centre = grid.center(n);
+                let q = Point2::new(
+                    p.x.clamp(centre.x - half, centre.x + half),
+                    p.y.clamp(centre.y - half, centre.y + half),
+                );
+                let d2 = (q - p).norm_squared();
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    best = Some(q);
+                }
+            }
+        }
+        best
     }
 
     /// Within the inflation radius (robot radius + margin) of a known obstacle's box.

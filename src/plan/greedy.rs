@@ -10,7 +10,7 @@
 //! frontier it could reach or look at is left.
 
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
-use super::{Action, PlanContext, Planner};
+use super::{Action, Plan, PlanContext, Planner};
 use crate::Result;
 
 /// The nearest-frontier planner.
@@ -39,12 +39,10 @@ impl Greedy {
     }
 }
 
-impl Planner for Greedy {
-    fn name(&self) -> &'static str {
-        "greedy"
-    }
-
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+impl Greedy {
+    /// The next action: toward the nearest frontier, or `Complete` (see [`Planner::plan`]; TENSOR's
+    /// fallback asks it too).
+    pub fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         let grid = *ctx.map.grid();
         self.visits.ensure(&grid);
         self.visit = None;
@@ -146,6 +144,16 @@ impl Planner for Greedy {
             path: cells.iter().map(|c| grid.center(*c)).collect(),
             look_on_arrival,
         })
+    }
+}
+
+impl Planner for Greedy {
+    fn name(&self) -> &'static str {
+        "greedy"
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        self.next_action(ctx).map(Plan::from)
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {

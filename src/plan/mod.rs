@@ -4,11 +4,11 @@
 //! a [`PlanContext`] and answers with an [`Action`]; the simulator's one motion executor carries it
 //! out, so that comparisons between planners are fair.
 
-pub mod frontier_visit;
-pub mod greedy;
-pub mod nbv;
+pub(crate) mod frontier_visit;
+pub(crate) mod greedy;
+pub(crate) mod nbv;
 pub mod search;
-pub mod tensor;
+pub(crate) mod tensor;
 pub mod thp;
 pub mod tsp;
 
@@ -194,6 +194,11 @@ pub fn escape_path(
     Some(path.cells.iter().map(|c| grid.center(*c)).collect())
 }
 
+/// Length of a polyline, metres.
+pub fn path_length(line: &[Point2<f64>]) -> f64 {
+    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
 /// What the robot should do next.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Action {
@@ -214,12 +219,39 @@ pub enum Action {
 }
 
 /// A planner: turns what is known into the next action.
+///
+/// The core is four methods; what only some planners do comes as optional capabilities
+/// ([`Planner::field_planner`]) and run statistics ([`Planner::stats`]), both defaulted. See
+/// `ARCHITECTURE.md` ("How to add a planner") and `examples/planner.rs`.
+///
+/// ```
+/// use tensorscout::plan::{Action, Plan, PlanContext, Planner};
+///
+/// /// Turns in place once, then declares the exploration complete.
+/// struct LookOnce(bool);
+///
+/// impl Planner for LookOnce {
+///     fn name(&self) -> &'static str {
+///         "look-once"
+///     }
+///     fn plan(&mut self, _ctx: &mut PlanContext) -> tensorscout::Result<Plan> {
+///         let done = std::mem::replace(&mut self.0, true);
+///         Ok(if done { Action::Complete } else { Action::LookAround }.into())
+///     }
+///     fn is_outdated(&mut self, _ctx: &PlanContext, _action: &Action) -> bool {
+///         false
+///     }
+///     fn action_finished(&mut self, _ctx: &PlanContext, _reached: bool) {}
+/// }
+/// # let _ = LookOnce(false);
+/// ```
 pub trait Planner {
     /// The name used on the command line and in results.
     fn name(&self) -> &'static str;
 
-    /// Chooses the next action. Called when the previous one is done, blocked or outdated.
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action>;
+    /// Chooses the next action, with what the planning step reports. Called when the previous
+    /// action is done, blocked or outdated. An error ends the run with termination `error`.
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan>;
 
     /// Whether the action in progress should be abandoned for a new plan (checked every step).
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool;
@@ -227,32 +259,118 @@ pub trait Planner {
     /// Told when the action ended: reached (`true`) or blocked/abandoned (`false`).
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool);
 
-    /// The field stage of a step, before planning: the tensor-field planners update their field
-    /// here at their key frames. GREEDY and NBV-TSP have no field.
-    fn update_field(&mut self, _map: &Map, _pose: Pose2, _time_s: f64) -> Result<()> {
-        Ok(())
-    }
-
-    /// The tensor field the planner steers by, if it has one (logged with `log.field`).
-    fn field(&self) -> Option<&TensorField> {
+    /// Capability of the planners steered by a tensor field (THP, TENSOR): the simulation updates
+    /// their field in the field stage of every step. `None` for planners without one.
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
         None
     }
 
-    /// The planned visiting order of goals (world points, next goal first), for logs and pictures.
-    fn tour(&self) -> Vec<Point2<f64>> {
-        Vec::new()
-    }
-
-    /// Wall milliseconds spent solving TSPs during the last `plan` call, if one was solved (THP
-    /// Fig. 8 plots it per planning step). Not deterministic: reported with the stage timings.
-    fn take_tsp_ms(&mut self) -> Option<f64> {
-        None
-    }
-
-    /// Deterministic counters the planner reports in the run result (`planner_stats`), such as TSP
-    /// solves or anchors visited.
+    /// The planner's deterministic run statistics (`planner_stats` in the result), such as TSP
+    /// solves or anchors visited: each planner keeps them typed ([`Count`] counters or plain
+    /// fields) and writes them under their JSON keys here. Asked once, when the run ends, as field
+    /// updates and finished actions count too.
     fn stats(&self) -> BTreeMap<String, f64> {
         BTreeMap::new()
+    }
+}
+
+/// The capability of a planner steered by a tensor field.
+pub trait FieldPlanner {
+    /// The field stage of a step, before planning: update the field at the planner's key frames.
+    fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()>;
+
+    /// The tensor field the planner steers by, once it has one (logged with `log.field`).
+    fn field(&self) -> Option<&TensorField>;
+}
+
+/// A planning step's answer: the next action and what the step reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    pub action: Action,
+    pub report: PlanReport,
+}
+
+impl Plan {
+    /// A plan with its tour and TSP time (see [`PlanReport`]).
+    pub fn new(action: Action, tour: Vec<Point2<f64>>, tsp_ms: Option<f64>) -> Plan {
+        Plan {
+            action,
+            report: PlanReport { tour, tsp_ms },
+        }
+    }
+}
+
+impl From<Action> for Plan {
+    /// A plan that reports nothing beyond its action.
+    fn from(action: Action) -> Plan {
+        Plan {
+            action,
+            report: PlanReport::default(),
+        }
+    }
+}
+
+/// What a planning step reports besides its action.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanReport {
+    /// The planned visiting order of goals (world points, next goal first), for logs and
+    /// pictures; empty for planners without one.
+    pub tour: Vec<Point2<f64>>,
+    /// Wall milliseconds spent solving TSPs in this step, if one was solved (THP Fig. 8 plots it
+    /// per planning step). Not deterministic: reported with the stage timings.
+    pub tsp_ms: Option<f64>,
+}
+
+/// One counter of a planner's typed statistics. It enters `planner_stats` once counted: a counter
+/// never touched in a run is left out of the result.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Count(Option<f64>);
+
+impl Count {
+    /// Adds `by`.
+    pub fn add(&mut self, by: f64) {
+        self.0 = Some(self.0.unwrap_or(0.0) + by);
+    }
+
+    /// Raises the counter to `v` if it is below (a running maximum).
+    pub fn raise_to(&mut self, v: f64) {
+        self.0 = Some(self.0.unwrap_or(0.0).max(v));
+    }
+
+    /// The value, if counted.
+    pub fn get(self) -> Option<f64> {
+        self.0
+    }
+}
+
+/// `planner_stats` from named counters: the counted ones, under their names.
+pub fn counted<'a>(counters: impl IntoIterator<Item = (&'a str, Count)>) -> BTreeMap<String, f64> {
+    counters
+        .into_iter()
+        .filter_map(|(k, c)| c.get().map(|v| (k.to_string(), v)))
+        .collect()
+}
+
+/// A planner borrowed from its owner is a planner too (benches keep the planner they wrap, to read
+/// what it recorded after the run).
+impl<P: Planner + ?Sized> Planner for &mut P {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        (**self).plan(ctx)
+    }
+    fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        (**self).is_outdated(ctx, action)
+    }
+    fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
+        (**self).action_finished(ctx, reached)
+    }
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        (**self).field_planner()
+    }
+    fn stats(&self) -> BTreeMap<String, f64> {
+        (**self).stats()
     }
 }
 

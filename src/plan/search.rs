@@ -54,7 +54,7 @@ impl PartialOrd for Entry {
 /// Generations are even: `stamp` equals the query's generation once the cell is reached (and `g`
 /// is valid), and the generation + 1 once it is settled.
 #[derive(Clone, Copy)]
-struct CellState {
+struct NodeState {
     stamp: u32,
     g: f32,
 }
@@ -72,7 +72,7 @@ pub struct Search {
     cells: usize,
     generation: u32,
     /// Per-cell search state.
-    state: Vec<CellState>,
+    state: Vec<NodeState>,
     /// Per-cell parent on the best path found (valid where the state is reached); apart from the
     /// state because only improvements write it.
     parent: Vec<u32>,
@@ -138,7 +138,7 @@ impl Search {
             cells: n,
             generation: 0,
             state: vec![
-                CellState {
+                NodeState {
                     stamp: 0,
                     g: f32::INFINITY,
                 };
@@ -169,7 +169,7 @@ impl Search {
 
     /// Marks `cell` reached at cost `g` from `parent`.
     fn reach(&mut self, cell: usize, g: f32, parent: usize) {
-        self.state[cell] = CellState {
+        self.state[cell] = NodeState {
             stamp: self.generation,
             g,
         };

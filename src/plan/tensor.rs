@@ -62,7 +62,7 @@
 //!   instead once they offer no gain.
 
 use super::greedy::Greedy;
-use super::{Action, PlanContext, Planner};
+use super::{path_length, Action, FieldPlanner, Plan, PlanContext, Planner};
 use crate::config::{Config, FieldConfig, TensorConfig};
 use crate::field::advect::{trace, StopConditions, StopReason};
 use crate::field::{
@@ -778,7 +778,7 @@ impl Tensor {
             self.current = Current::None;
             // GREEDY's choice decides whether a frontier it would pursue is left; its action is not
             // taken.
-            if self.greedy.plan(ctx)? == Action::Complete {
+            if self.greedy.next_action(ctx)? == Action::Complete {
                 return Ok(Action::Complete);
             }
             self.stats.stuck_no_route += 1;
@@ -787,7 +787,7 @@ impl Tensor {
         self.stats.fallback_plans += 1;
         self.route_target = None;
         self.advecting = false;
-        let a = self.greedy.plan(ctx)?;
+        let a = self.greedy.next_action(ctx)?;
         self.current = if a == Action::Complete {
             Current::None
         } else {
@@ -839,7 +839,7 @@ impl Tensor {
     /// executor's guard sees them), when the guard pins the robot and a look did not help.
     fn step_clear(&mut self, ctx: &PlanContext) -> Option<Action> {
         let robot = ctx.pose.position();
-        let h = crate::sim::motion::nearest_obstacle(ctx.map, robot, 1.0)?;
+        let h = ctx.map.nearest_hazard(robot, 1.0)?;
         let d = (robot - h).norm();
         if d < 1e-6 {
             return None;
@@ -1120,10 +1120,6 @@ fn walk(ctx: &PlanContext, from: Point2<f64>, dir: Vector2<f64>, max_m: f64) -> 
     best
 }
 
-fn path_length(line: &[Point2<f64>]) -> f64 {
-    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
-}
-
 /// Cells a path passes through after its first point (for the blockage check), without repeats.
 fn path_cells(grid: &GridSpec, path: &[Point2<f64>]) -> Vec<usize> {
     let mut out: Vec<usize> = Vec::new();
@@ -1138,16 +1134,9 @@ fn path_cells(grid: &GridSpec, path: &[Point2<f64>]) -> Vec<usize> {
     out
 }
 
-impl Planner for Tensor {
-    fn name(&self) -> &'static str {
-        if self.cfg.fallback {
-            FALLBACK_LABEL
-        } else {
-            "tensor"
-        }
-    }
-
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+impl Tensor {
+    /// The next action (see [`Planner::plan`]).
+    fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.action_start = ctx.pose.position();
         if self.field.is_none() {
             return Ok(Action::LookAround);
@@ -1211,6 +1200,25 @@ impl Planner for Tensor {
             return Ok(a);
         }
         self.advect(ctx, 0)
+    }
+}
+
+impl Planner for Tensor {
+    fn name(&self) -> &'static str {
+        if self.cfg.fallback {
+            FALLBACK_LABEL
+        } else {
+            "tensor"
+        }
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        let action = self.next_action(ctx)?;
+        Ok(Plan::new(
+            action,
+            self.route_target.into_iter().collect(),
+            None,
+        ))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
@@ -1297,6 +1305,16 @@ impl Planner for Tensor {
         }
     }
 
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        Some(self)
+    }
+
+    fn stats(&self) -> BTreeMap<String, f64> {
+        self.stats_map()
+    }
+}
+
+impl FieldPlanner for Tensor {
     fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
         let field = self
             .field
@@ -1323,12 +1341,11 @@ impl Planner for Tensor {
     fn field(&self) -> Option<&TensorField> {
         self.field.as_ref()
     }
+}
 
-    fn tour(&self) -> Vec<Point2<f64>> {
-        self.route_target.into_iter().collect()
-    }
-
-    fn stats(&self) -> BTreeMap<String, f64> {
+impl Tensor {
+    /// The run statistics under their `planner_stats` keys (see [`Planner::stats`]).
+    fn stats_map(&self) -> BTreeMap<String, f64> {
         let s = &self.stats;
         [
             ("key_frames", s.key_frames),

@@ -42,7 +42,7 @@
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
-use super::{Action, PlanContext, Planner};
+use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, Planner};
 use crate::config::{Config, FieldConfig, Grouping, ThpConfig};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
@@ -169,10 +169,37 @@ pub struct Thp {
     cost_rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
     /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
     row_searches: Vec<Search>,
-    counters: BTreeMap<&'static str, f64>,
+    stats: ThpStats,
     ledger: PathLedger,
     /// Escapes started toward each target cell.
     escape_tries: BTreeMap<usize, u32>,
+}
+
+/// THP's run statistics (`planner_stats`, under the field names).
+#[derive(Clone, Debug, Default)]
+struct ThpStats {
+    key_frames: Count,
+    anchors_degenerate: Count,
+    anchors_frontier: Count,
+    anchors_visited: Count,
+    groups_split: Count,
+    tsp_solves: Count,
+    tsp_nodes_max: Count,
+    tsp_nodes_total: Count,
+    cost_rows: Count,
+    escapes: Count,
+    escapes_given_up: Count,
+    astar_new_goal: Count,
+    astar_same_goal: Count,
+    advected_segments: Count,
+    advection_stops_at_points: Count,
+    advection_fallbacks: Count,
+    advection_stalls: Count,
+    distant_views: Count,
+    groups_left_unfinished: Count,
+    returns_to_unfinished: Count,
+    /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
+    path_m: [Count; 5],
 }
 
 /// Why the robot is driving where it is: each goal's reason, and the metres driven for it. Written
@@ -203,6 +230,14 @@ enum GoalKind {
 }
 
 impl GoalKind {
+    const ALL: [GoalKind; 5] = [
+        GoalKind::OutsideTour,
+        GoalKind::SameGroup,
+        GoalKind::NextGroup,
+        GoalKind::LeftUnfinished,
+        GoalKind::Return,
+    ];
+
     fn key(self) -> &'static str {
         match self {
             GoalKind::OutsideTour => "path_m_outside_tour",
@@ -238,7 +273,7 @@ impl Thp {
             flood: DistanceField::default(),
             cost_rows: BTreeMap::new(),
             row_searches: Vec::new(),
-            counters: BTreeMap::new(),
+            stats: ThpStats::default(),
             ledger: PathLedger::default(),
             escape_tries: BTreeMap::new(),
         }
@@ -264,8 +299,8 @@ impl Thp {
         l.last_node = Some(node);
         l.kind = kind;
         match kind {
-            GoalKind::LeftUnfinished => self.count("groups_left_unfinished", 1.0),
-            GoalKind::Return => self.count("returns_to_unfinished", 1.0),
+            GoalKind::LeftUnfinished => self.stats.groups_left_unfinished.add(1.0),
+            GoalKind::Return => self.stats.returns_to_unfinished.add(1.0),
             _ => {}
         }
     }
@@ -275,13 +310,9 @@ impl Thp {
         if let Some(q) = self.ledger.last_pos.replace(p) {
             let d = (p - q).norm();
             if d > 0.0 {
-                self.count(self.ledger.kind.key(), d);
+                self.stats.path_m[self.ledger.kind as usize].add(d);
             }
         }
-    }
-
-    fn count(&mut self, key: &'static str, by: f64) {
-        *self.counters.entry(key).or_insert(0.0) += by;
     }
 
     fn add_anchor(&mut self, pos: Point2<f64>, source: AnchorSource) -> usize {
@@ -291,13 +322,10 @@ impl Thp {
             visited: false,
         });
         self.new_anchors = true;
-        self.count(
-            match source {
-                AnchorSource::Degenerate(_) => "anchors_degenerate",
-                AnchorSource::Frontier => "anchors_frontier",
-            },
-            1.0,
-        );
+        match source {
+            AnchorSource::Degenerate(_) => self.stats.anchors_degenerate.add(1.0),
+            AnchorSource::Frontier => self.stats.anchors_frontier.add(1.0),
+        }
         self.anchors.len() - 1
     }
 
@@ -409,7 +437,7 @@ impl Thp {
             if split.is_empty() {
                 continue;
             }
-            self.count("groups_split", 1.0);
+            self.stats.groups_split.add(1.0);
             groups.insert(
                 k,
                 members
@@ -426,7 +454,7 @@ impl Thp {
         for (k, a) in self.anchors.iter_mut().enumerate() {
             if !a.visited && groups.get(&k).is_none_or(|g| g.is_empty()) {
                 a.visited = true;
-                *self.counters.entry("anchors_visited").or_insert(0.0) += 1.0;
+                self.stats.anchors_visited.add(1.0);
             }
         }
         groups
@@ -493,11 +521,10 @@ impl Thp {
         self.new_anchors = false;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.tsp_ms = Some(self.tsp_ms.unwrap_or(0.0) + ms);
-        self.count("tsp_solves", 1.0);
+        self.stats.tsp_solves.add(1.0);
         let n = nodes.len() as f64;
-        let max = self.counters.entry("tsp_nodes_max").or_insert(0.0);
-        *max = max.max(n);
-        self.count("tsp_nodes_total", n);
+        self.stats.tsp_nodes_max.raise_to(n);
+        self.stats.tsp_nodes_total.add(n);
     }
 
     /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
@@ -560,7 +587,7 @@ impl Thp {
                 .map(|(&t, c)| (t, c.map_or(f64::INFINITY, f64::from)))
                 .collect();
             self.cost_rows.insert(source, (now, row));
-            *self.counters.entry("cost_rows").or_insert(0.0) += 1.0;
+            self.stats.cost_rows.add(1.0);
         }
         for (i, a) in access.iter().enumerate() {
             for (j, b) in access.iter().enumerate() {
@@ -656,11 +683,11 @@ impl Thp {
                     let tries = self.escape_tries.entry(target).or_insert(0);
                     *tries += 1;
                     if *tries > MAX_ESCAPES {
-                        self.count("escapes_given_up", 1.0);
+                        self.stats.escapes_given_up.add(1.0);
                         self.visits.give_up_around(&grid, target, open_frontiers);
                         continue;
                     }
-                    self.count("escapes", 1.0);
+                    self.stats.escapes.add(1.0);
                     self.ledger.kind = GoalKind::OutsideTour;
                     self.goal = None;
                     return Ok(Some(Action::Follow {
@@ -677,7 +704,7 @@ impl Thp {
                     |i| self.visits.is_unobservable(i),
                     self.view_m,
                 ) {
-                    self.count("distant_views", 1.0);
+                    self.stats.distant_views.add(1.0);
                     let visit = Visit {
                         target: segment_cells[view.segment]
                             .iter()
@@ -761,14 +788,11 @@ impl Thp {
         if !same_goal {
             self.note_tour_goal(first, |k| nodes.iter().any(|n| n.key == k));
         }
-        self.count(
-            if same_goal {
-                "astar_same_goal"
-            } else {
-                "astar_new_goal"
-            },
-            1.0,
-        );
+        if same_goal {
+            self.stats.astar_same_goal.add(1.0);
+        } else {
+            self.stats.astar_new_goal.add(1.0);
+        }
         let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
             self.visits.finished(map, &visit, false);
@@ -832,7 +856,7 @@ impl Thp {
             && ctx.time_s - goal.progress_s >= self.cfg.advection_stall_s
         {
             goal.direct = true;
-            *self.counters.entry("advection_stalls").or_insert(0.0) += 1.0;
+            self.stats.advection_stalls.add(1.0);
         }
         if self.cfg.advection && !goal.direct {
             if let Some(field) = &self.field {
@@ -856,12 +880,9 @@ impl Thp {
                     },
                 );
                 if path_length(&segment) >= MIN_SEGMENT_M {
-                    *self.counters.entry("advected_segments").or_insert(0.0) += 1.0;
+                    self.stats.advected_segments.add(1.0);
                     if matches!(reason, StopReason::NearDegenerate(_)) {
-                        *self
-                            .counters
-                            .entry("advection_stops_at_points")
-                            .or_insert(0.0) += 1.0;
+                        self.stats.advection_stops_at_points.add(1.0);
                     }
                     let goal = self.goal.as_mut().expect("a goal is set");
                     goal.final_segment = reaches_end;
@@ -870,7 +891,7 @@ impl Thp {
                         look_on_arrival: reaches_end && goal.look_on_arrival,
                     };
                 }
-                *self.counters.entry("advection_fallbacks").or_insert(0.0) += 1.0;
+                self.stats.advection_fallbacks.add(1.0);
             }
         }
         let goal = self.goal.as_mut().expect("a goal is set");
@@ -894,11 +915,7 @@ impl Thp {
     }
 }
 
-impl Planner for Thp {
-    fn name(&self) -> &'static str {
-        "thp"
-    }
-
+impl FieldPlanner for Thp {
     fn update_field(&mut self, map: &Map, _pose: Pose2, time_s: f64) -> Result<()> {
         if time_s + 1e-9 < self.next_key_frame_s {
             return Ok(());
@@ -909,7 +926,7 @@ impl Planner for Thp {
             .get_or_insert_with(|| TensorField::new(*map.grid(), &self.field_cfg));
         field.update(map)?;
         self.next_key_frame_s = time_s + self.cfg.field_period_s;
-        self.count("key_frames", 1.0);
+        self.stats.key_frames.add(1.0);
         let before = self.anchors.len();
         self.take_degenerate_points(map, first);
         if self.anchors.len() > before {
@@ -919,7 +936,14 @@ impl Planner for Thp {
         Ok(())
     }
 
-    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+    fn field(&self) -> Option<&TensorField> {
+        self.field.as_ref()
+    }
+}
+
+impl Thp {
+    /// The next action (see [`Planner::plan`]).
+    fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.note_position(ctx.pose.position());
         self.visits.ensure(ctx.map.grid());
         self.tsp_ms = None;
@@ -940,7 +964,7 @@ impl Planner for Thp {
             let goal = self.goal.clone().expect("a goal is set");
             let start = super::search_source(map, search_cfg, robot, self.radius_m);
             if start.is_some() {
-                self.count("astar_same_goal", 1.0);
+                self.stats.astar_same_goal.add(1.0);
             }
             let path = start.and_then(|s| {
                 ctx.search.astar(
@@ -962,6 +986,21 @@ impl Planner for Thp {
             self.set_goal(ctx, goal.visit, goal.node, &cells);
         }
         Ok(self.next_segment(ctx))
+    }
+}
+
+impl Planner for Thp {
+    fn name(&self) -> &'static str {
+        "thp"
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        let action = self.next_action(ctx)?;
+        Ok(Plan::new(
+            action,
+            self.tour_points.clone(),
+            self.tsp_ms.take(),
+        ))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
@@ -1008,23 +1047,38 @@ impl Planner for Thp {
         self.visits.finished(ctx.map, &goal.visit, reached);
     }
 
-    fn field(&self) -> Option<&TensorField> {
-        self.field.as_ref()
-    }
-
-    fn tour(&self) -> Vec<Point2<f64>> {
-        self.tour_points.clone()
-    }
-
-    fn take_tsp_ms(&mut self) -> Option<f64> {
-        self.tsp_ms.take()
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        Some(self)
     }
 
     fn stats(&self) -> BTreeMap<String, f64> {
-        self.counters
-            .iter()
-            .map(|(k, v)| (k.to_string(), *v))
-            .collect()
+        let s = &self.stats;
+        super::counted(
+            [
+                ("key_frames", s.key_frames),
+                ("anchors_degenerate", s.anchors_degenerate),
+                ("anchors_frontier", s.anchors_frontier),
+                ("anchors_visited", s.anchors_visited),
+                ("groups_split", s.groups_split),
+                ("tsp_solves", s.tsp_solves),
+                ("tsp_nodes_max", s.tsp_nodes_max),
+                ("tsp_nodes_total", s.tsp_nodes_total),
+                ("cost_rows", s.cost_rows),
+                ("escapes", s.escapes),
+                ("escapes_given_up", s.escapes_given_up),
+                ("astar_new_goal", s.astar_new_goal),
+                ("astar_same_goal", s.astar_same_goal),
+                ("advected_segments", s.advected_segments),
+                ("advection_stops_at_points", s.advection_stops_at_points),
+                ("advection_fallbacks", s.advection_fallbacks),
+                ("advection_stalls", s.advection_stalls),
+                ("distant_views", s.distant_views),
+                ("groups_left_unfinished", s.groups_left_unfinished),
+                ("returns_to_unfinished", s.returns_to_unfinished),
+            ]
+            .into_iter()
+            .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),
+        )
     }
 }
 
@@ -1169,11 +1223,6 @@ fn nearest_on_path(path: &[Point2<f64>], p: Point2<f64>, from: usize) -> (usize,
         .map(|(k, q)| (k, (q - p).norm()))
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
         .unwrap_or((from, f64::INFINITY))
-}
-
-/// Length of a polyline, metres.
-fn path_length(line: &[Point2<f64>]) -> f64 {
-    line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
 
 /// The prefix of an advected pathline the robot may follow: it stops before the first impassable

@@ -14,8 +14,10 @@ use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 use std::path::Path;
 
+pub mod field;
 pub mod palette;
 
+pub use field::draw_field;
 pub use palette::{
     FREE, FRONTIER, INFLATED, OCCUPIED, PATH, REGION, ROBOT, START, TRUTH_WALL, UNKNOWN,
 };

@@ -10,9 +10,9 @@
 //! ChaCha8 stream seeded by `seed`; nothing iterates a hash map.
 
 use super::extrude::extrude_grid;
-use super::ground_truth::distance_transform;
 use super::TriMesh;
 use crate::error::{Error, Result};
+use crate::grid::distance_transform;
 use crate::Pose2;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};

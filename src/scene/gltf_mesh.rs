@@ -327,7 +327,7 @@ fn load_uri(path: &Path, uri: &str) -> Result<Vec<u8>> {
                 "glTF buffer data URI is not base64 (`;base64,` missing)",
             )
         })?;
-        return crate::log::base64_decode(data)
+        return crate::util::base64_decode(data)
             .ok_or_else(|| Error::scene(path, "glTF buffer data URI holds invalid base64"));
     }
     if uri.contains("://") {

@@ -18,7 +18,7 @@ use super::geometry::triangle_meets_cylinder;
 use super::{Scene, TriMesh};
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{distance_transform, Cell, GridSpec, NEIGHBOURS_8};
 use crate::Pose2;
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -447,77 +447,6 @@ pub fn triangle_box_overlap(centre: [f64; 3], half: f64, tri: &[[f64; 3]; 3]) ->
     true
 }
 
-/// Exact squared Euclidean distance transform (Felzenszwalb–Huttenlocher), in cells², from every
-/// cell to the nearest `true` cell; `f64::INFINITY` where there is none.
-pub fn distance_transform(sites: &[bool], nx: usize, ny: usize) -> Vec<f64> {
-    const FAR: f64 = 1e20;
-    // Columns first (transposed so each column is contiguous), then rows.
-    let mut cols = vec![FAR; nx * ny];
-    for iy in 0..ny {
-        for ix in 0..nx {
-            if sites[iy * nx + ix] {
-                cols[ix * ny + iy] = 0.0;
-            }
-        }
-    }
-    cols.par_chunks_mut(ny).for_each(edt_1d);
-    let mut rows = vec![0.0; nx * ny];
-    for ix in 0..nx {
-        for iy in 0..ny {
-            rows[iy * nx + ix] = cols[ix * ny + iy];
-        }
-    }
-    rows.par_chunks_mut(nx).for_each(edt_1d);
-    rows.into_iter()
-        .map(|d| if d >= FAR * 0.5 { f64::INFINITY } else { d })
-        .collect()
-}
-
-/// One 1D pass: `f[q] ← min_p (q − p)² + f[p]` via the lower envelope of parabolas.
-fn edt_1d(f: &mut [f64]) {
-    let n = f.len();
-    if n == 0 {
-        return;
-    }
-    let input = f.to_vec();
-    let mut v = vec![0usize; n];
-    let mut z = vec![0.0f64; n + 1];
-    let mut k = 0;
-    z[0] = f64::NEG_INFINITY;
-    z[1] = f64::INFINITY;
-    for q in 1..n {
-        loop {
-            let p = v[k];
-            let s = ((input[q] + (q * q) as f64) - (input[p] + (p * p) as f64))
-                / (2.0 * (q as f64 - p as f64));
-            if s <= z[k] && k > 0 {
-                k -= 1;
-                continue;
-            }
-            if s <= z[k] {
-                // k == 0: the new parabola replaces the first one entirely.
-                v[0] = q;
-                z[1] = f64::INFINITY;
-                break;
-            }
-            k += 1;
-            v[k] = q;
-            z[k] = s;
-            z[k + 1] = f64::INFINITY;
-            break;
-        }
-    }
-    k = 0;
-    for (q, out) in f.iter_mut().enumerate() {
-        while z[k + 1] < q as f64 {
-            k += 1;
-        }
-        let p = v[k];
-        let d = q as f64 - p as f64;
-        *out = d * d + input[p];
-    }
-}
-
 /// Distance from each cell centre to the nearest obstacle column's square (`[i, i+1)` in cells),
 /// metres. Exact where it is below `limit_m`; elsewhere a lower bound of at least `limit_m`. The
 /// centre-to-centre `clearance` bounds it from above, and from below by half a cell diagonal, so
@@ -776,27 +705,6 @@ pub fn info(scene: &Scene, gt: &GroundTruth) -> SceneInfo {
 mod tests {
     use super::*;
     use crate::scene::extrude::extrude_grid;
-    use rand::{Rng, SeedableRng};
-
-    #[test]
-    fn edt_matches_brute_force() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        for (nx, ny, p) in [(37, 23, 0.05), (16, 40, 0.3), (9, 9, 0.0), (30, 1, 0.1)] {
-            let sites: Vec<bool> = (0..nx * ny).map(|_| rng.random_bool(p)).collect();
-            let fast = distance_transform(&sites, nx, ny);
-            for (i, &fast_d2) in fast.iter().enumerate() {
-                let (x, y) = ((i % nx) as f64, (i / nx) as f64);
-                let brute = (0..nx * ny)
-                    .filter(|&j| sites[j])
-                    .map(|j| {
-                        let (a, b) = ((j % nx) as f64, (j / nx) as f64);
-                        (a - x).powi(2) + (b - y).powi(2)
-                    })
-                    .fold(f64::INFINITY, f64::min);
-                assert_eq!(fast_d2, brute, "{nx}×{ny} cell {i}");
-            }
-        }
-    }
 
     #[test]
     fn sat_known_cases() {

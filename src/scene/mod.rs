@@ -2,13 +2,13 @@
 //!
 //! Every loader returns a z-up mesh in metres; [`load`] then validates it and moves its floor to z = 0.
 
-pub mod extrude;
+pub(crate) mod extrude;
 pub mod generate;
-pub mod geometry;
-pub mod gltf_mesh;
+pub(crate) mod geometry;
+pub(crate) mod gltf_mesh;
 pub mod ground_truth;
 pub mod houseexpo;
-pub mod mesh;
+pub(crate) mod mesh;
 pub mod rosmap;
 
 pub use ground_truth::{info, GroundTruth, VoxelTriangles};

@@ -405,7 +405,7 @@ pub fn ros_map_files(grid: &crate::GridSpec, states: &[CellState]) -> (String, V
                 .iter()
                 .map(|s| match s {
                     CellState::Free => PGM_FREE,
-                    CellState::Occupied => PGM_OCCUPIED,
+                    CellState::Obstacle => PGM_OCCUPIED,
                     CellState::Unknown => PGM_UNKNOWN,
                 }),
         );
@@ -422,13 +422,7 @@ pub fn ros_map_files(grid: &crate::GridSpec, states: &[CellState]) -> (String, V
     (yaml, pgm)
 }
 
-/// The three cell states of a map.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellState {
-    Free,
-    Occupied,
-    Unknown,
-}
+pub use crate::grid::CellState;
 
 /// Classifies one pixel as map_server does.
 pub fn classify(yaml: &MapYaml, max_value: u16, v: u16) -> CellState {
@@ -445,7 +439,7 @@ pub fn classify(yaml: &MapYaml, max_value: u16, v: u16) -> CellState {
         (max - v as f64) / max
     };
     if p > yaml.occupied_thresh {
-        CellState::Occupied
+        CellState::Obstacle
     } else if p < yaml.free_thresh {
         CellState::Free
     } else {
@@ -488,7 +482,7 @@ fn extrude_map(
         for ix in 0..nx {
             let free = match state(x0 + ix, y0 + iy) {
                 CellState::Free => true,
-                CellState::Occupied => false,
+                CellState::Obstacle => false,
                 CellState::Unknown => cfg.unknown_as_free,
             };
             solid[iy * nx + ix] = !free;
@@ -700,9 +694,9 @@ mod tests {
         };
         use CellState::*;
         let states = vec![
-            Free, Free, Occupied, Unknown, //
-            Unknown, Free, Free, Occupied, //
-            Occupied, Occupied, Free, Free,
+            Free, Free, Obstacle, Unknown, //
+            Unknown, Free, Free, Obstacle, //
+            Obstacle, Obstacle, Free, Free,
         ];
         let (yaml_text, pgm_bytes) = ros_map_files(&grid, &states);
         let yaml = parse_yaml(Path::new("map.yaml"), &yaml_text).unwrap();

@@ -2,8 +2,8 @@
 //! (the default) or by casting one ray per pixel into the mesh's BVH (the reference, and the
 //! collision queries).
 
-pub mod camera;
-pub mod raster;
+pub(crate) mod camera;
+pub(crate) mod raster;
 pub mod raycast;
 
 pub use camera::{DepthCamera, DepthFrame};

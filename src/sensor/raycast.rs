@@ -192,30 +192,10 @@ fn ray_triangle(o: PVector, d: PVector, tri: &[PVector; 3], max: f32) -> Option<
 /// Test and bench geometry: axis-aligned boxes as closed triangle meshes.
 pub mod testing {
     use crate::scene::TriMesh;
-    use nalgebra::Point3;
 
-    /// Appends the 12 triangles of the box `[min, max]` to `mesh`.
+    /// Appends the 12 triangles of the box `[min, max]` to `mesh` ([`TriMesh::push_box`] in `f32`).
     pub fn push_box(mesh: &mut TriMesh, min: [f32; 3], max: [f32; 3]) {
-        let base = mesh.vertices.len() as u32;
-        for i in 0..8u32 {
-            mesh.vertices.push(Point3::new(
-                if i & 1 == 0 { min[0] } else { max[0] },
-                if i & 2 == 0 { min[1] } else { max[1] },
-                if i & 4 == 0 { min[2] } else { max[2] },
-            ));
-        }
-        const FACES: [[u32; 4]; 6] = [
-            [0, 2, 6, 4], // x min
-            [1, 5, 7, 3], // x max
-            [0, 4, 5, 1], // y min
-            [2, 3, 7, 6], // y max
-            [0, 1, 3, 2], // z min
-            [4, 6, 7, 5], // z max
-        ];
-        for f in FACES {
-            mesh.triangles.push([base + f[0], base + f[1], base + f[2]]);
-            mesh.triangles.push([base + f[0], base + f[2], base + f[3]]);
-        }
+        mesh.push_box(min.map(f64::from), max.map(f64::from));
     }
 
     /// A furnished room: floor, four walls (the room box's inside faces), a table-like box, a shelf and a

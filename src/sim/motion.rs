@@ -3,7 +3,6 @@
 
 use super::robot::Command;
 use crate::config::Config;
-use crate::grid::Cell;
 use crate::map::Map;
 use crate::plan::Action;
 use crate::util::wrap_angle;
@@ -140,7 +139,9 @@ impl MotionExecutor {
             Phase::Escaping { steps_left } => {
                 let here = pose.position();
                 let clearance = obstacle_clearance(map, here, self.slow_clearance);
-                let away = nearest_obstacle(map, here, self.slow_clearance).map(|o| here - o);
+                let away = map
+                    .nearest_hazard(here, self.slow_clearance)
+                    .map(|o| here - o);
                 *steps_left = steps_left.saturating_sub(1);
                 let done = clearance >= self.free_clearance || *steps_left == 0;
                 let Some(away) = away.filter(|_| !done) else {
@@ -304,44 +305,8 @@ fn track_tightly(
 /// Distance from `p` to the nearest hazard, searched within `max_m` (returns `max_m` when none is
 /// nearer).
 pub fn obstacle_clearance(map: &Map, p: Point2<f64>, max_m: f64) -> f64 {
-    nearest_obstacle(map, p, max_m).map_or(max_m, |o| (o - p).norm())
-}
-
-/// The hazard point nearest to `p` within `max_m`: a known obstacle surface point (see
-/// [`Map::nearest_obstacle_point`]: measured to the obstacle boxes, which hold the ray hits), or the
-/// nearest point of a never-seen cell grown by half a cell. The camera faces forward and sees nothing
-/// nearer than its minimum range, so a wall beside the robot may be unknown, and the cell holding
-/// its face may count as seen through the free part of its voxels; the guard keeps the disc that far
-/// from cells the robot has no evidence about, as it keeps it off known obstacles.
-pub fn nearest_obstacle(map: &Map, p: Point2<f64>, max_m: f64) -> Option<Point2<f64>> {
-    let mut best = map.nearest_obstacle_point(p, max_m);
-    let mut best_d2 = best.map_or(max_m * max_m, |o| (o - p).norm_squared());
-    let grid = map.grid();
-    let half = 1.0 * grid.res;
-    let c = grid.cell_at(p.x, p.y);
-    let r = (max_m / grid.res).ceil() as i32 + 1;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let n = Cell::new(c.x + dx, c.y + dy);
-            let Some(i) = grid.checked_index(n) else {
-                continue;
-            };
-            if map.is_seen(i) {
-                continue;
-            }
-            let centre = grid.center(n);
-            let q = Point2::new(
-                p.x.clamp(centre.x - half, centre.x + half),
-                p.y.clamp(centre.y - half, centre.y + half),
-            );
-            let d2 = (q - p).norm_squared();
-            if d2 < best_d2 {
-                best_d2 = d2;
-                best = Some(q);
-            }
-        }
-    }
-    best
+    map.nearest_hazard(p, max_m)
+        .map_or(max_m, |o| (o - p).norm())
 }
 
 #[cfg(test)]

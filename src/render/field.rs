@@ -1,11 +1,10 @@
 //! Pictures of the field: line glyphs coloured by coherence, separatrices and edges, degenerate points.
 
-use super::degenerate::DegenerateKind;
-use super::TensorField;
+use crate::field::{DegenerateKind, TensorField};
 use image::{Rgb, RgbImage};
 use nalgebra::Point2;
 
-pub use crate::render::palette::{
+pub use super::palette::{
     fade, GLYPH, OTHER_DEGENERATE as OTHER, SEPARATRIX, TOPOLOGY_EDGE as PAIRING, TRISECTOR, WEDGE,
 };
 
@@ -50,7 +49,7 @@ pub fn draw_field(
         polyline(img, &sep.polyline, &to_px, SEPARATRIX);
     }
     for e in &graph.edges {
-        if e.kind == super::topology::EdgeKind::ShortestPath {
+        if e.kind == crate::field::EdgeKind::ShortestPath {
             polyline(img, &e.polyline, &to_px, PAIRING);
         }
     }
@@ -104,5 +103,26 @@ fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
             (a.1 + (b.1 - a.1) * t).floor() as i64,
             c,
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::field::synth;
+
+    /// The office layout's field, drawn: its degenerate points and its separatrices or pairings show
+    /// in their palette colours.
+    #[test]
+    fn drawing_the_office_field_shows_points_and_lines() {
+        let l = synth::office(0.1);
+        let (f, _) =
+            crate::field::full_field(&l.grid, &l.surface, &l.surface, &Config::default().field)
+                .unwrap();
+        let mut img = RgbImage::new(l.grid.nx as u32 * 2, l.grid.ny as u32 * 2);
+        draw_field(&mut img, &f, 2, 4, &|_| true);
+        assert!(img.pixels().any(|p| *p == WEDGE || *p == TRISECTOR));
+        assert!(img.pixels().any(|p| *p == SEPARATRIX || *p == PAIRING));
     }
 }
