@@ -238,3 +238,24 @@ pub fn distant_view(
         aim,
     })
 }
+
+/// The action that drives along `df`'s least-cost path to `cell` (which `df` reaches) and, if
+/// `look_on_arrival`, turns once there; with the path's cells after the robot's, which the planner
+/// checks for blockage. A path of one cell (the robot is there) is a look around.
+pub fn follow_to(
+    grid: &GridSpec,
+    df: &DistanceField,
+    cell: usize,
+    look_on_arrival: bool,
+) -> (super::Action, Vec<usize>) {
+    let path = df.path_to(grid, cell).expect("reachable by construction");
+    if path.cells.len() < 2 {
+        return (super::Action::LookAround, Vec::new());
+    }
+    let cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
+    let action = super::Action::Follow {
+        path: path.cells.iter().map(|c| grid.center(*c)).collect(),
+        look_on_arrival,
+    };
+    (action, cells)
+}

@@ -9,7 +9,7 @@
 //! cell in line of sight (see [`super::frontier_visit::distant_view`]). The run is complete when no
 //! frontier it could reach or look at is left.
 
-use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
+use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
 use super::{Action, Plan, PlanContext, Planner};
 use crate::Result;
 
@@ -101,17 +101,9 @@ impl Greedy {
                     aim: view.aim,
                     near_view: true,
                 });
-                let path = df
-                    .path_to(&grid, view.viewpoint)
-                    .expect("reachable by construction");
-                if path.cells.len() < 2 {
-                    return Ok(Action::LookAround);
-                }
-                self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
-                return Ok(Action::Follow {
-                    path: path.cells.iter().map(|c| grid.center(*c)).collect(),
-                    look_on_arrival: true,
-                });
+                let action;
+                (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true);
+                return Ok(action);
             };
             self.visit = Some(Visit {
                 target: segments[k].cells.clone(),
@@ -122,12 +114,9 @@ impl Greedy {
             let Some(v) = blind_zone_viewpoint(map, &df, f, view_m) else {
                 return Ok(Action::LookAround);
             };
-            let path = df.path_to(&grid, v).expect("reachable by construction");
-            self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
-            return Ok(Action::Follow {
-                path: path.cells.iter().map(|c| grid.center(*c)).collect(),
-                look_on_arrival,
-            });
+            let action;
+            (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival);
+            return Ok(action);
         };
         let path = df.path_to(&grid, goal).expect("reachable by construction");
         let cells = self.visits.cut_short(&grid, &path.cells, goal, view_m);

@@ -34,7 +34,7 @@
 //!   narrow to pass is looked at once from a reachable cell in line of sight
 //!   ([`super::frontier_visit::distant_view`], shared with GREEDY and THP).
 
-use super::frontier_visit::{distant_view, line_of_sight};
+use super::frontier_visit::{distant_view, follow_to, line_of_sight};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::{Config, NbvConfig};
@@ -514,17 +514,9 @@ impl Nbv {
             };
             self.stats.distant_views.add(1.0);
             self.distant = Some((view.aim, segments[view.segment].clone()));
-            let path = df
-                .path_to(&grid, view.viewpoint)
-                .expect("reachable by construction");
-            if path.cells.len() < 2 {
-                return Ok(Action::LookAround);
-            }
-            self.path_cells = path.cells.iter().skip(1).map(|c| grid.index(*c)).collect();
-            return Ok(Action::Follow {
-                path: path.cells.iter().map(|c| grid.center(*c)).collect(),
-                look_on_arrival: true,
-            });
+            let action;
+            (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true);
+            return Ok(action);
         }
 
         // Alg. 5: Eq. 7 costs over path costs, the robot as the fixed start (node 0).
