@@ -113,6 +113,26 @@ impl GroundTruth {
                         s.x, s.y, cfg.robot.radius_m, c
                     )));
                 }
+                // The clearance above is between cell centres; the robot's disc at the spawn itself
+                // is tested exactly, with the collision test's geometry, so that no run starts in
+                // collision (a converted plan's start 0.24 m from a wall face did).
+                let (z_min, z_max) = (
+                    cfg.map.band_min_m,
+                    cfg.robot.height_m.min(cfg.map.band_max_m),
+                );
+                let touches = mesh.triangles.iter().any(|t| {
+                    let tri = t.map(|k| {
+                        let v = mesh.vertices[k as usize];
+                        [v.x as f64, v.y as f64, v.z as f64]
+                    });
+                    triangle_meets_cylinder(tri, s.x, s.y, cfg.robot.radius_m, z_min, z_max)
+                });
+                if touches {
+                    return Err(Error::usage(format!(
+                        "spawn ({}, {}) puts the robot's disc (radius {} m, {z_min}–{z_max} m high) into the scene: move it farther from the nearest surface",
+                        s.x, s.y, cfg.robot.radius_m
+                    )));
+                }
                 s
             }
             None => auto_spawn(&grid, &obstacle, &clearance)?,
@@ -786,6 +806,26 @@ mod tests {
         let gt = GroundTruth::build(&mesh, Some(Pose2::new(1.0, 1.0, 0.3)), &cfg).unwrap();
         assert_eq!(gt.spawn, Pose2::new(1.0, 1.0, 0.3));
         assert_eq!(gt.region_cells(), 41 * 31);
+    }
+
+    /// A spawn whose cell centre keeps the robot radius from the nearest obstacle cell's centre,
+    /// while the disc at the spawn itself reaches into the wall, is refused.
+    #[test]
+    fn spawn_whose_disc_touches_the_mesh_is_refused() {
+        let cfg = Config::default();
+        let mut mesh = box_room();
+        // A wall whose face lies inside a cell: x = 2.08, in the cell 2.0–2.1 (centre 2.05).
+        mesh.push_box([2.0, 0.5, 0.0], [2.08, 2.5, 2.5]);
+        // x = 2.32 is in the cell centred at 2.35: 0.30 m between centres, 0.24 m to the face.
+        let e = GroundTruth::build(&mesh, Some(Pose2::new(2.32, 1.5, 0.0)), &cfg).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "spawn (2.32, 1.5) puts the robot's disc (radius 0.25 m, 0.1–1.2 m high) into the scene: move it farther from the nearest surface"
+        );
+        assert_eq!(e.exit_code(), 2);
+        // 0.27 m from the face it is accepted.
+        let gt = GroundTruth::build(&mesh, Some(Pose2::new(2.35, 1.5, 0.0)), &cfg).unwrap();
+        assert_eq!(gt.spawn, Pose2::new(2.35, 1.5, 0.0));
     }
 
     #[test]
