@@ -7,8 +7,7 @@
 mod common;
 
 use tensorscout::plan::PlannerKind;
-use tensorscout::scene;
-use tensorscout::sim::{self, Termination, World};
+use tensorscout::sim::Termination;
 use tensorscout::Config;
 
 #[test]
@@ -17,17 +16,7 @@ fn greedy_completes_every_shipped_scene() {
     let cfg = Config::default();
     let mut failures = Vec::new();
     for path in common::shipped_scenes() {
-        let scene = scene::load(&path, &cfg.scene).unwrap();
-        let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
-        let out = sim::run(
-            &scene,
-            world,
-            &cfg,
-            PlannerKind::Greedy,
-            &mut sim::NoObserver,
-        )
-        .unwrap();
-        let r = &out.result;
+        let r = &common::explore(&path, &cfg, PlannerKind::Greedy);
         // The observable set is sampled tightly: under 1 % of what the run saw lies outside it.
         let ok = r.termination == Termination::Complete
             && r.completeness >= 0.95
@@ -82,10 +71,7 @@ fn finishes(
     let cfg = cfg.clone();
     let mut failures = Vec::new();
     for path in paths {
-        let scene = scene::load(path, &cfg.scene).unwrap();
-        let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
-        let out = sim::run(&scene, world, &cfg, planner, &mut sim::NoObserver).unwrap();
-        let r = &out.result;
+        let r = &common::explore(path, &cfg, planner);
         let finished = matches!(r.termination, Termination::Complete | Termination::Budget)
             || (stuck_ok && r.termination == Termination::Stuck);
         if !finished || r.collisions != 0 || r.completeness < min_completeness {
@@ -132,17 +118,7 @@ fn tensor_as_published_reports_why_it_stops() {
     );
     let mut failures = Vec::new();
     for path in common::shipped_scenes() {
-        let scene = scene::load(&path, &cfg.scene).unwrap();
-        let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
-        let out = sim::run(
-            &scene,
-            world,
-            &cfg,
-            PlannerKind::Tensor,
-            &mut sim::NoObserver,
-        )
-        .unwrap();
-        let r = &out.result;
+        let r = &common::explore(&path, &cfg, PlannerKind::Tensor);
         assert_eq!(r.planner, "tensor");
         assert_eq!(
             r.planner_stats.get("fallback_plans"),

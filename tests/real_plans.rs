@@ -9,8 +9,7 @@ mod common;
 
 use std::path::Path;
 use tensorscout::plan::PlannerKind;
-use tensorscout::scene;
-use tensorscout::sim::{self, Termination, World};
+use tensorscout::sim::Termination;
 use tensorscout::Config;
 
 const PLANS: [&str; 2] = ["plan_2b11efc201", "plan_ca76724070"];
@@ -24,11 +23,8 @@ fn frontier_planners_enter_every_room_behind_narrow_doors() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("scenes/floorplans")
             .join(format!("{name}.obj"));
-        let scene = scene::load(&path, &cfg.scene).unwrap();
         for planner in [PlannerKind::Greedy, PlannerKind::Thp, PlannerKind::Nbv] {
-            let world = World::with_cache(&scene, &cfg, None, &common::cache()).unwrap();
-            let out = sim::run(&scene, world, &cfg, planner, &mut sim::NoObserver).unwrap();
-            let r = &out.result;
+            let r = &common::explore(&path, &cfg, planner);
             if r.termination != Termination::Complete || r.collisions != 0 || r.completeness < 0.90
             {
                 let unseen: Vec<String> = r

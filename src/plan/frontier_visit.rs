@@ -205,11 +205,11 @@ pub fn distant_view(
     let mut best: Option<(f32, usize, usize, usize)> = None;
     for (k, seg) in segments.iter().enumerate() {
         for &aim in seg {
-            let c = &grid.cell(aim);
+            let c = grid.cell(aim);
             if given_up(aim) || df.cost_to(aim).is_some() {
                 continue;
             }
-            let f = grid.center(*c);
+            let f = grid.center(c);
             for dy in -reach..=reach {
                 for dx in -reach..=reach {
                     let Some(v) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {

@@ -77,3 +77,23 @@ pub fn room_obj(spawn: Option<&str>) -> String {
     }
     obj_text(&mesh, spawn)
 }
+
+/// One exploration of the scene at `path` with `planner` under `cfg`, from the scene's own start,
+/// with the shared observable-set cache: its result.
+#[allow(dead_code)]
+pub fn explore(
+    path: &Path,
+    cfg: &tensorscout::Config,
+    planner: tensorscout::plan::PlannerKind,
+) -> tensorscout::sim::RunResult {
+    let scene = tensorscout::scene::load(path, &cfg.scene).unwrap();
+    let world = tensorscout::sim::World::with_cache(&scene, cfg, None, &cache()).unwrap();
+    let out = tensorscout::sim::run(
+        &scene,
+        world,
+        cfg,
+        planner,
+        &mut tensorscout::sim::NoObserver,
+    );
+    out.unwrap().result
+}
