@@ -206,6 +206,17 @@ pub enum Grouping {
     Kmeans,
 }
 
+/// Where THP's open tour starts (room THP Alg. 1 leaves; see `plan::thp`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TourStart {
+    /// At the robot: the TSP holds the robot's cell as its fixed start, so the first group is
+    /// chosen with the whole tour in view.
+    Robot,
+    /// At the anchor nearest the robot by path cost (Alg. 1 read literally).
+    NearestAnchor,
+}
+
 /// THP: anchors, online TSP, frontier grouping and splitting, advection (seed 000 §3.3–3.5).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -223,6 +234,7 @@ pub struct ThpConfig {
     pub advect_length_m: f64,
     pub drift_m: f64,
     pub finish_group_first: bool,
+    pub tour_start: TourStart,
     pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }

@@ -61,6 +61,12 @@ impl FrontierVisits {
         self.unobservable.get(cell).copied().unwrap_or(false)
     }
 
+    /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
+    /// all the way).
+    pub fn was_approached(&self, cell: usize) -> bool {
+        self.approached.get(cell).copied().unwrap_or(false)
+    }
+
     /// The cells of `path` (start first, ending at `aim`) to drive: all of them if `aim` was approached
     /// before, otherwise those up to `view_m` (measured along the path) short of the end.
     pub fn cut_short<'a>(

@@ -71,7 +71,11 @@ impl Greedy {
                     continue;
                 }
                 if let Some(d) = df.cost_to(i) {
-                    let near = (grid.center(*c) - robot).norm_squared() <= near2;
+                    // A frontier approached once (stopped short of, looked at) competes as any
+                    // other even inside the blind zone: its second approach comes while the robot
+                    // is there (the rule THP shares).
+                    let near = (grid.center(*c) - robot).norm_squared() <= near2
+                        && !self.visits.was_approached(i);
                     let slot = if near { &mut best_near } else { &mut best };
                     if slot.is_none_or(|(bd, bi, _)| (d, i) < (bd, bi)) {
                         *slot = Some((d, i, k));

@@ -1,0 +1,282 @@
+//! Choosing the next goal: the least-cost frontier of the tour's first group, a step back for a
+//! frontier in the camera's blind zone, an escape from a pocket, or a look through a gap too narrow
+//! to pass before the run is complete.
+
+use super::*;
+
+/// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
+/// margin), metres.
+pub(super) const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
+
+/// Escapes toward one target cell before the frontier there is given up.
+pub(super) const MAX_ESCAPES: u32 = 2;
+
+impl Thp {
+    /// The reachable, observable frontiers and, separately, the nearest other one inside the camera's
+    /// blind zone around the robot, with path costs from the robot's distance field.
+    ///
+    /// A frontier the robot stopped short of and looked at stays among the frontiers even inside the
+    /// blind zone, so its second approach (all the way, [`FrontierVisits::cut_short`]) comes next,
+    /// while the robot is there. Left out, it emptied its group, its anchor counted as visited, and
+    /// once the robot was away it came back as a new anchor: the robot shuttled between two such
+    /// frontiers for the rest of a run (50 m on `plan_115c3a7a64`).
+    pub(super) fn frontiers(
+        &self,
+        map: &Map,
+        df: &DistanceField,
+        robot: Point2<f64>,
+    ) -> (Vec<Frontier>, Option<Frontier>, Vec<Vec<usize>>) {
+        let grid = map.grid();
+        let near2 = self.near_unknown_m * self.near_unknown_m;
+        let segments = map.frontiers();
+        let mut out = Vec::new();
+        let mut nearest_near: Option<Frontier> = None;
+        let mut cells = Vec::with_capacity(segments.len());
+        for (k, seg) in segments.iter().enumerate() {
+            let best = seg
+                .cells
+                .iter()
+                .map(|c| grid.index(*c))
+                .filter(|&i| !self.visits.is_unobservable(i))
+                .filter_map(|i| df.cost_to(i).map(|d| (d, i)))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            cells.push(seg.cells.iter().map(|c| grid.index(*c)).collect());
+            let Some((cost, aim)) = best else { continue };
+            let f = Frontier {
+                segment: k,
+                pos: seg.centroid,
+                aim,
+                cost,
+            };
+            let near = (grid.center(grid.cell(aim)) - robot).norm_squared() <= near2;
+            if near && !self.visits.was_approached(aim) {
+                if nearest_near
+                    .as_ref()
+                    .is_none_or(|n| (cost, aim) < (n.cost, n.aim))
+                {
+                    nearest_near = Some(f);
+                }
+            } else {
+                out.push(f);
+            }
+        }
+        (out, nearest_near, cells)
+    }
+
+    /// Chooses the next goal: the least-cost frontier of the first node of the tour.
+    pub(super) fn choose_goal(&mut self, ctx: &mut PlanContext) -> Result<Option<Action>> {
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        let Some(start) = plan::search_source(ctx.map, &ctx.cfg.search, robot, self.radius_m)
+        else {
+            return Ok(Some(Action::LookAround));
+        };
+        // The step costs and the robot's distance field live in buffers kept between steps.
+        let mut costs = std::mem::take(&mut self.step_costs);
+        costs.refill(ctx.map, &ctx.cfg.search, robot);
+        let mut df = std::mem::take(&mut self.flood);
+        ctx.search
+            .distance_field_into(&grid, |i| costs.get(i), start, f32::INFINITY, &mut df);
+        let action = self.choose_goal_from(ctx, start, &costs, &df);
+        self.step_costs = costs;
+        self.flood = df;
+        action
+    }
+
+    /// [`Thp::choose_goal`] once the step costs and the robot's distance field (from `start`) are
+    /// known.
+    pub(super) fn choose_goal_from(
+        &mut self,
+        ctx: &mut PlanContext,
+        start: usize,
+        costs: &plan::StepCosts,
+        df: &DistanceField,
+    ) -> Result<Option<Action>> {
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        let map = ctx.map;
+        let (fronts, near, segment_cells) = self.frontiers(map, df, robot);
+        let nodes = match self.cfg.grouping {
+            Grouping::Anchors => self.group_by_anchors(&fronts, robot),
+            Grouping::None => fronts
+                .iter()
+                .enumerate()
+                .map(|(i, f)| Node {
+                    key: i,
+                    pos: f.pos,
+                    members: vec![i],
+                })
+                .collect(),
+            Grouping::Kmeans => {
+                kmeans_nodes(&fronts, &segment_cells, grid.res, self.cfg.kmeans_cluster_m)
+            }
+        };
+        if nodes.is_empty() {
+            // No node to route over: `P*` (if any) has nothing to re-order.
+            self.new_anchors = false;
+            self.tour.clear();
+            self.tour_points.clear();
+            // Only frontiers in the blind zone are left: step back to see the floor there.
+            let Some(f) = near else {
+                // Frontiers are left but none is reachable: trapped in a pocket? An escape toward
+                // a target that already failed `MAX_ESCAPES` times gives the frontier up there, so
+                // that one unreachable target cannot keep the robot trying until the run is stuck.
+                loop {
+                    let open_frontiers: Vec<usize> = segment_cells
+                        .iter()
+                        .flatten()
+                        .copied()
+                        .filter(|&i| !self.visits.is_unobservable(i))
+                        .collect();
+                    if open_frontiers.is_empty() {
+                        break;
+                    }
+                    let Some(path) =
+                        plan::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
+                    else {
+                        break;
+                    };
+                    let target = path
+                        .last()
+                        .and_then(|p| grid.cell_of(*p))
+                        .map_or(start, |c| grid.index(c));
+                    let tries = self.escape_tries.entry(target).or_insert(0);
+                    *tries += 1;
+                    if *tries > MAX_ESCAPES {
+                        self.stats.escapes_given_up.add(1.0);
+                        self.visits.give_up_around(&grid, target, open_frontiers);
+                        continue;
+                    }
+                    self.stats.escapes.add(1.0);
+                    self.ledger.kind = GoalKind::OutsideTour;
+                    self.goal = None;
+                    return Ok(Some(Action::Follow {
+                        path,
+                        look_on_arrival: false,
+                    }));
+                }
+                // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
+                // pass, each once, before calling the map done (shared with GREEDY).
+                if let Some(view) = distant_view(
+                    map,
+                    df,
+                    &segment_cells,
+                    |i| self.visits.is_unobservable(i),
+                    self.view_m,
+                ) {
+                    self.stats.distant_views.add(1.0);
+                    let visit = Visit {
+                        target: segment_cells[view.segment]
+                            .iter()
+                            .map(|&i| grid.cell(i))
+                            .collect(),
+                        aim: view.aim,
+                        near_view: true,
+                    };
+                    let path = df
+                        .path_to(&grid, view.viewpoint)
+                        .expect("reachable by construction");
+                    self.set_goal(ctx, visit, usize::MAX, &path.cells);
+                    return Ok(None);
+                }
+                return Ok(Some(Action::Complete));
+            };
+            let visit = f.visit(&grid, &segment_cells, true);
+            return Ok(self.blind_zone_goal(ctx, df, visit, usize::MAX));
+        }
+        let resolve = match self.cfg.grouping {
+            Grouping::Anchors => {
+                self.new_anchors || !nodes.iter().all(|n| self.tour.contains(&n.key))
+            }
+            Grouping::None | Grouping::Kmeans => true,
+        };
+        if resolve {
+            self.solve_tour(ctx, costs, df, &nodes, &fronts);
+        } else {
+            // Follow the tour: drop visited anchors, keep the order.
+            let keep: Vec<(usize, Point2<f64>)> = self
+                .tour
+                .iter()
+                .zip(&self.tour_points)
+                .filter(|(k, _)| nodes.iter().any(|n| n.key == **k))
+                .map(|(k, p)| (*k, *p))
+                .collect();
+            self.tour = keep.iter().map(|k| k.0).collect();
+            self.tour_points = keep.iter().map(|k| k.1).collect();
+        }
+        let first = self.tour[0];
+        let node = nodes
+            .iter()
+            .find(|n| n.key == first)
+            .expect("tour covers the nodes");
+        let f = node
+            .members
+            .iter()
+            .map(|&m| &fronts[m])
+            .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
+            .expect("nodes have members")
+            .clone();
+        let visit = f.visit(&grid, &segment_cells, false);
+        // Keep the current A* path if the goal did not change.
+        if let Some(g) = &mut self.goal {
+            if g.visit.aim == visit.aim && !g.stale {
+                g.visit = visit;
+                g.node = first;
+                return Ok(None);
+            }
+        }
+        // A* calls by cause, for the advection claim (§3.5): a new goal, or the same goal again.
+        let same_goal = self.goal.as_ref().is_some_and(|g| g.visit.aim == visit.aim);
+        if !same_goal {
+            self.note_tour_goal(first, |k| nodes.iter().any(|n| n.key == k));
+        }
+        if same_goal {
+            self.stats.astar_same_goal.add(1.0);
+        } else {
+            self.stats.astar_new_goal.add(1.0);
+        }
+        let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
+            // Reachable in the distance field, so A* finds it too; be safe all the same.
+            self.visits.finished(map, &visit, false);
+            return Ok(Some(Action::LookAround));
+        };
+        let cells = self
+            .visits
+            .cut_short(&grid, &path.cells, f.aim, self.view_m)
+            .to_vec();
+        self.set_goal(ctx, visit, first, &cells);
+        Ok(None)
+    }
+
+    /// Steps back from a frontier in the camera's blind zone to a cell from which the camera sees the
+    /// floor there ([`blind_zone_viewpoint`]), or turns in place where there is none. Returns the
+    /// action to take now, if not the goal's path.
+    pub(super) fn blind_zone_goal(
+        &mut self,
+        ctx: &PlanContext,
+        df: &DistanceField,
+        visit: Visit,
+        node: usize,
+    ) -> Option<Action> {
+        let grid = *ctx.map.grid();
+        let f = grid.center(grid.cell(visit.aim));
+        let Some(v) = blind_zone_viewpoint(ctx.map, df, f, self.view_m) else {
+            self.goal = Some(Goal {
+                visit,
+                node,
+                path: Vec::new(),
+                path_cells: Vec::new(),
+                look_on_arrival: true,
+                final_segment: true,
+                stale: false,
+                best_progress: 0,
+                progress_s: ctx.time_s,
+                direct: false,
+            });
+            return Some(Action::LookAround);
+        };
+        let path = df.path_to(&grid, v).expect("reachable by construction");
+        self.set_goal(ctx, visit, node, &path.cells);
+        None
+    }
+}

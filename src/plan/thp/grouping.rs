@@ -1,0 +1,359 @@
+//! Anchors and frontier groups (THP §3.3–3.4, Alg. 2, Eq. 5, 7–9): degenerate points become
+//! anchors, frontiers join their nearest anchor within `d_f`, groups spanning a wall are split, and
+//! the k-means baseline of Fig. 8.
+
+use super::*;
+
+/// Where an anchor came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum AnchorSource {
+    /// A tracked degenerate point of the field (its id).
+    Degenerate(u64),
+    /// A frontier too far from every anchor (Alg. 2), or split off a group (Eq. 9).
+    Frontier,
+}
+
+#[derive(Clone, Debug)]
+pub(super) struct Anchor {
+    pub(super) pos: Point2<f64>,
+    pub(super) source: AnchorSource,
+    pub(super) visited: bool,
+}
+
+/// A frontier segment as the planner sees it in one plan.
+#[derive(Clone, Debug)]
+pub(super) struct Frontier {
+    /// Index into the plan's segment list.
+    pub(super) segment: usize,
+    /// The segment's centroid: the frontier position `f` of §3.4.
+    pub(super) pos: Point2<f64>,
+    /// Its least-cost observable cell: the cell the robot aims at.
+    pub(super) aim: usize,
+    /// Path cost from the robot to `aim`.
+    pub(super) cost: f32,
+}
+
+impl Frontier {
+    /// The visit of this frontier's segment (`segment_cells` as returned by `Thp::frontiers`).
+    pub(super) fn visit(
+        &self,
+        grid: &GridSpec,
+        segment_cells: &[Vec<usize>],
+        near_view: bool,
+    ) -> Visit {
+        Visit {
+            target: segment_cells[self.segment]
+                .iter()
+                .map(|&i| grid.cell(i))
+                .collect(),
+            aim: self.aim,
+            near_view,
+        }
+    }
+}
+
+/// A TSP node of one plan: an anchor with its group, a single frontier, or a k-means cluster.
+#[derive(Clone, Debug)]
+pub(super) struct Node {
+    /// Anchor index (anchors mode) or a plan-local number.
+    pub(super) key: usize,
+    pub(super) pos: Point2<f64>,
+    /// Indices into the plan's frontier list.
+    pub(super) members: Vec<usize>,
+}
+
+/// Lloyd iterations of the k-means grouping.
+pub(super) const KMEANS_ITERATIONS: usize = 20;
+
+/// Whether `p` lies on known traversable floor (a usable anchor position).
+pub(super) fn on_floor(map: &Map, grid: &GridSpec, p: Point2<f64>) -> bool {
+    grid.cell_of(p)
+        .is_some_and(|c| map.is_traversable(grid.index(c)))
+}
+
+/// Group splitting, THP Eq. 9 — the reading used here.
+///
+/// The paper defines S(F_k) = {f_k | ν ≥ d_g ∨ (μ < d_p ∧ ν < d_g)} with μ the distance from the
+/// robot to the group's anchor and ν a comparison of the A* length to f_k with it, but never defines
+/// ν, and read literally S keeps exactly the frontiers that are far around a wall. Its stated intent
+/// (Fig. 4) is to split a group that spans two rooms when the robot is at it. So:
+///
+/// - μ = ‖c_r − p_k‖: the robot is at the group when μ < d_p;
+/// - ν = path cost(c_r, f_k) − ‖c_r − f_k‖: the detour to f_k, large exactly when a wall stands
+///   between the robot and f_k (the straight distance, not μ, is the baseline, so a frontier merely
+///   far across an open room is not split off);
+/// - while μ < d_p, the members with ν ≥ d_g are split off and become anchors — but only when the
+///   group also has members with ν < d_g (it really spans two sides). A group wholly behind a wall is
+///   left whole, so the split-off group is never split again.
+///
+/// Returns the members (indices into `fronts`) to split off.
+pub(super) fn split_group(
+    members: &[usize],
+    fronts: &[Frontier],
+    robot: Point2<f64>,
+    anchor: Point2<f64>,
+    d_g: f64,
+    d_p: f64,
+) -> Vec<usize> {
+    let mu = (robot - anchor).norm();
+    if mu >= d_p || members.len() < 2 {
+        return Vec::new();
+    }
+    let detour = |m: usize| f64::from(fronts[m].cost) - (fronts[m].pos - robot).norm();
+    let (far, near): (Vec<usize>, Vec<usize>) =
+        members.iter().copied().partition(|&m| detour(m) >= d_g);
+    if near.is_empty() {
+        return Vec::new();
+    }
+    far
+}
+
+/// K-means grouping (the Fig. 8 baseline, clusters as in Kulich et al. 2019): one cluster per
+/// `cluster_m` metres of frontier, farthest-point initialisation (deterministic), Lloyd iterations on
+/// the segment centroids.
+pub(super) fn kmeans_nodes(
+    fronts: &[Frontier],
+    segment_cells: &[Vec<usize>],
+    res: f64,
+    cluster_m: f64,
+) -> Vec<Node> {
+    if fronts.is_empty() {
+        return Vec::new();
+    }
+    let length_m: f64 = fronts
+        .iter()
+        .map(|f| segment_cells[f.segment].len() as f64 * res)
+        .sum();
+    let k = ((length_m / cluster_m).ceil() as usize).clamp(1, fronts.len());
+    let mut centres = vec![fronts[0].pos];
+    while centres.len() < k {
+        let next = fronts
+            .iter()
+            .map(|f| {
+                centres
+                    .iter()
+                    .map(|c| (c - f.pos).norm_squared())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+            .map(|(i, _)| i)
+            .expect("fronts is not empty");
+        centres.push(fronts[next].pos);
+    }
+    let mut assign = vec![0usize; fronts.len()];
+    for _ in 0..KMEANS_ITERATIONS {
+        let mut changed = false;
+        for (i, f) in fronts.iter().enumerate() {
+            let best = (0..k)
+                .min_by(|&a, &b| {
+                    (centres[a] - f.pos)
+                        .norm_squared()
+                        .total_cmp(&(centres[b] - f.pos).norm_squared())
+                        .then(a.cmp(&b))
+                })
+                .expect("k ≥ 1");
+            changed |= assign[i] != best;
+            assign[i] = best;
+        }
+        for (c, centre) in centres.iter_mut().enumerate() {
+            let members: Vec<&Frontier> = fronts
+                .iter()
+                .zip(&assign)
+                .filter(|(_, &a)| a == c)
+                .map(|(f, _)| f)
+                .collect();
+            if !members.is_empty() {
+                let sum = members
+                    .iter()
+                    .fold(nalgebra::Vector2::zeros(), |s, f| s + f.pos.coords);
+                *centre = Point2::from(sum / members.len() as f64);
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    (0..k)
+        .map(|c| Node {
+            key: c,
+            pos: centres[c],
+            members: (0..fronts.len()).filter(|&i| assign[i] == c).collect(),
+        })
+        .filter(|n| !n.members.is_empty())
+        .collect()
+}
+
+impl Thp {
+    pub(super) fn add_anchor(&mut self, pos: Point2<f64>, source: AnchorSource) -> usize {
+        self.anchors.push(Anchor {
+            pos,
+            source,
+            visited: false,
+        });
+        self.new_anchors = true;
+        match source {
+            AnchorSource::Degenerate(_) => self.stats.anchors_degenerate.add(1.0),
+            AnchorSource::Frontier => self.stats.anchors_frontier.add(1.0),
+        }
+        self.anchors.len() - 1
+    }
+
+    /// Turns the field's new degenerate points into anchors (Eq. 5), and moves existing degenerate
+    /// anchors with their tracked points. Points off the known traversable floor are skipped until
+    /// they are on it (they may sit in unknown space, outside the walls or inside furniture).
+    pub(super) fn take_degenerate_points(&mut self, map: &Map, first_key_frame: bool) {
+        let Some(field) = &self.field else { return };
+        let grid = map.grid();
+        let points: Vec<(u64, Point2<f64>)> =
+            field.points().iter().map(|p| (p.id, p.pos())).collect();
+        for (id, pos) in points {
+            if let Some(a) = self
+                .anchors
+                .iter_mut()
+                .find(|a| a.source == AnchorSource::Degenerate(id))
+            {
+                if !a.visited && on_floor(map, grid, pos) {
+                    a.pos = pos;
+                }
+                continue;
+            }
+            if self.known_ids.contains(&id) || !on_floor(map, grid, pos) {
+                continue;
+            }
+            if !self.cfg.extension && !first_key_frame {
+                // Table 3 ablation: route over the first key frame's points only.
+                self.known_ids.insert(id);
+                continue;
+            }
+            self.known_ids.insert(id);
+            self.add_anchor(pos, AnchorSource::Degenerate(id));
+        }
+    }
+
+    /// Alg. 2: groups frontiers around the unvisited anchors (Eq. 7–8), makes the ungrouped ones
+    /// anchors, splits groups (Eq. 9), and marks anchors with empty groups visited. Returns the nodes.
+    pub(super) fn group_by_anchors(
+        &mut self,
+        fronts: &[Frontier],
+        robot: Point2<f64>,
+    ) -> Vec<Node> {
+        let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (fi, f) in fronts.iter().enumerate() {
+            let nearest = self
+                .anchors
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| !a.visited)
+                .map(|(k, a)| ((a.pos - f.pos).norm(), k))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let k = match nearest {
+                Some((d, k)) if d <= self.cfg.d_f_m => k,
+                _ => self.add_anchor(f.pos, AnchorSource::Frontier),
+            };
+            groups.entry(k).or_default().push(fi);
+        }
+        let keys: Vec<usize> = groups.keys().copied().collect();
+        for k in keys {
+            let members = groups.get(&k).cloned().unwrap_or_default();
+            let split = split_group(
+                &members,
+                fronts,
+                robot,
+                self.anchors[k].pos,
+                self.cfg.d_g_m,
+                self.cfg.d_p_m,
+            );
+            if split.is_empty() {
+                continue;
+            }
+            self.stats.groups_split.add(1.0);
+            groups.insert(
+                k,
+                members
+                    .iter()
+                    .copied()
+                    .filter(|m| !split.contains(m))
+                    .collect(),
+            );
+            for fi in split {
+                let a = self.add_anchor(fronts[fi].pos, AnchorSource::Frontier);
+                groups.entry(a).or_default().push(fi);
+            }
+        }
+        for (k, a) in self.anchors.iter_mut().enumerate() {
+            if !a.visited && groups.get(&k).is_none_or(|g| g.is_empty()) {
+                a.visited = true;
+                self.stats.anchors_visited.add(1.0);
+            }
+        }
+        groups
+            .into_iter()
+            .filter(|(_, m)| !m.is_empty())
+            .map(|(k, members)| Node {
+                key: k,
+                pos: self.anchors[k].pos,
+                members,
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn front(pos: (f64, f64), cost: f32) -> Frontier {
+        Frontier {
+            segment: 0,
+            pos: Point2::new(pos.0, pos.1),
+            aim: 0,
+            cost,
+        }
+    }
+
+    #[test]
+    fn a_group_across_a_wall_is_split_when_the_robot_is_at_it() {
+        let robot = Point2::new(0.0, 0.0);
+        let anchor = Point2::new(1.0, 0.0);
+        // f0 in the robot's room (path ≈ straight), f1 1.5 m away through the wall but 6 m by path.
+        let fronts = [front((2.0, 0.0), 2.1), front((0.0, 1.5), 6.0)];
+        assert_eq!(
+            split_group(&[0, 1], &fronts, robot, anchor, 2.0, 3.0),
+            vec![1]
+        );
+        // The robot far from the group (μ ≥ d_p): no split.
+        let far = Point2::new(-5.0, 0.0);
+        assert!(split_group(&[0, 1], &fronts, far, anchor, 2.0, 3.0).is_empty());
+        // A group wholly behind the wall is not split again.
+        let behind = [front((0.0, 1.5), 6.0), front((0.5, 1.5), 6.4)];
+        assert!(split_group(&[0, 1], &behind, robot, anchor, 2.0, 3.0).is_empty());
+        // A frontier far across an open room is not a detour.
+        let open = [front((2.0, 0.0), 2.1), front((2.9, 0.0), 3.0)];
+        assert!(split_group(&[0, 1], &open, robot, anchor, 2.0, 3.0).is_empty());
+    }
+
+    #[test]
+    fn kmeans_separates_two_distant_clusters() {
+        let mut fronts = Vec::new();
+        for i in 0..4 {
+            fronts.push(front((i as f64 * 0.3, 0.0), 1.0));
+            fronts.push(front((20.0 + i as f64 * 0.3, 5.0), 1.0));
+        }
+        for (i, f) in fronts.iter_mut().enumerate() {
+            f.segment = i;
+        }
+        // 8 segments of 10 cells at 0.1 m = 8 m of frontier, 4 m per cluster: k = 2.
+        let cells = vec![vec![0usize; 10]; 8];
+        let nodes = kmeans_nodes(&fronts, &cells, 0.1, 4.0);
+        assert_eq!(nodes.len(), 2);
+        for n in &nodes {
+            let xs: Vec<f64> = n.members.iter().map(|&m| fronts[m].pos.x).collect();
+            assert!(
+                xs.iter().all(|&x| x < 1.0) || xs.iter().all(|&x| x > 19.0),
+                "{xs:?}"
+            );
+            assert_eq!(n.members.len(), 4);
+        }
+    }
+}

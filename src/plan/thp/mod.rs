@@ -1,0 +1,327 @@
+//! THP: tensor-field-driven hierarchical path planning (seed 000, §3.3–3.5).
+//!
+//! Three levels, each re-using the shared map, field, searches and motion executor:
+//!
+//! 1. **Anchors and the online TSP (§3.3, Alg. 1, Eq. 5–6).** Anchors are the tracked degenerate
+//!    points of the field (recomputed every `thp.field_period_s`), kept at their last position once
+//!    their point disappears, and visited for good once their frontier group is empty. `P*` is the set
+//!    of anchors new since the last solve; while it is empty the robot follows the tour, otherwise the
+//!    fixed-start open TSP is re-solved from the anchor nearest the robot by path cost (Alg. 1 breaks
+//!    its loop). Costs are path costs under the shared search cost rule, one Dijkstra per node
+//!    ([`Search::costs_to_targets`]) rather than pairwise A*. Exact Held–Karp up to
+//!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
+//! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the
+//!    centroids of the map's frontier segments (at most `map.frontier_segment_max_m`, 1 m, long). Each
+//!    joins its nearest unvisited anchor within `d_f`; the rest become anchors. Groups are split by
+//!    Eq. 9 under the reading documented at [`split_group`]. Groups are visited in tour order, the
+//!    frontiers of a group in path order (least path cost from the robot first).
+//! 3. **A* and advection (§3.5, Eq. 10–11).** A* runs to the next goal; its path is sampled at `d_s`
+//!    into constraint points that change the planning field within σ of the path. The robot then moves
+//!    along pathlines of that field (`thp.advect_length_m` at a time), oriented toward the goal. A* is
+//!    re-run only when the goal changes, the path is blocked by a newly seen obstacle, or the robot
+//!    or its pathline strays more than `thp.drift_m` from the path.
+//!
+//! Frontiers are visited with GREEDY's rules ([`super::frontier_visit`]): stop short, look, and give
+//! up a frontier still unobserved after the robot stood on it and looked. The run is complete when
+//! no anchor and no reachable, observable frontier is left.
+//!
+//! Mechanisms the paper does not have, each a config key: `thp.advection_stall_s` (on, 5 s): when
+//! advection has not brought the robot farther along its A* path for that long, the robot follows the
+//! A* path itself to that goal (counted as `advection_stalls`); pathlines around a wedge or a table
+//! can circle for good, and such runs ended `stuck`.
+//!
+//! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
+//! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
+//! goals that left a group with frontiers left and came back to one.
+//!
+//! Ablations (`[thp]`): `extension = false` keeps only the degenerate points of the first key frame
+//! (Table 3); `grouping = "none" | "kmeans"` replaces anchor groups by single frontiers or k-means
+//! clusters, re-solving the TSP at every goal choice (Fig. 8); `advection = false` follows the A*
+//! path itself.
+
+use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
+use super::search::{DistanceField, Search};
+use super::tsp::{self, CostMatrix};
+use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, Planner};
+use crate::config::{Config, FieldConfig, Grouping, ThpConfig, TourStart};
+use crate::field::{StopReason, TensorField};
+use crate::grid::GridSpec;
+use crate::map::Map;
+use crate::plan;
+use crate::{Pose2, Result};
+use nalgebra::Point2;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Instant;
+
+mod following;
+mod goals;
+mod grouping;
+mod ledger;
+mod tour;
+
+use following::*;
+use grouping::*;
+use ledger::*;
+
+/// The THP planner. Cloneable, so that a bench can replay one planning step from a saved state.
+#[derive(Clone)]
+pub struct Thp {
+    cfg: ThpConfig,
+    field_cfg: FieldConfig,
+    view_m: f64,
+    near_unknown_m: f64,
+    goal_tolerance_m: f64,
+    radius_m: f64,
+    field: Option<TensorField>,
+    next_key_frame_s: f64,
+    anchors: Vec<Anchor>,
+    /// Degenerate-point ids already turned into anchors (or deliberately ignored).
+    known_ids: BTreeSet<u64>,
+    /// `P*` is not empty: anchors appeared since the last TSP solve.
+    new_anchors: bool,
+    /// Tour order of node keys from the last solve.
+    tour: Vec<usize>,
+    tour_points: Vec<Point2<f64>>,
+    visits: FrontierVisits,
+    goal: Option<Goal>,
+    /// The action was abandoned for a reason that is not a failed attempt (new anchors).
+    benign_interrupt: bool,
+    tsp_ms: Option<f64>,
+    /// Buffers of the planning step's cell costs and the robot's distance field, kept between steps.
+    step_costs: plan::StepCosts,
+    flood: DistanceField,
+    /// Cached cost rows: source cell → (time computed, target cell → path cost).
+    cost_rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
+    /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
+    row_searches: Vec<Search>,
+    stats: ThpStats,
+    ledger: PathLedger,
+    /// Escapes started toward each target cell.
+    escape_tries: BTreeMap<usize, u32>,
+}
+
+/// THP's run statistics (`planner_stats`, under the field names).
+#[derive(Clone, Debug, Default)]
+struct ThpStats {
+    key_frames: Count,
+    anchors_degenerate: Count,
+    anchors_frontier: Count,
+    anchors_visited: Count,
+    groups_split: Count,
+    tsp_solves: Count,
+    tsp_nodes_max: Count,
+    tsp_nodes_total: Count,
+    cost_rows: Count,
+    escapes: Count,
+    escapes_given_up: Count,
+    astar_new_goal: Count,
+    astar_same_goal: Count,
+    advected_segments: Count,
+    advection_stops_at_points: Count,
+    advection_fallbacks: Count,
+    advection_stalls: Count,
+    distant_views: Count,
+    groups_left_unfinished: Count,
+    returns_to_unfinished: Count,
+    /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
+    path_m: [Count; 5],
+}
+
+impl Thp {
+    pub fn new(cfg: &Config) -> Self {
+        Thp {
+            cfg: cfg.thp.clone(),
+            field_cfg: cfg.field.clone(),
+            view_m: cfg.thp.view_distance_m,
+            near_unknown_m: cfg.search.near_unknown_radius_m,
+            goal_tolerance_m: cfg.motion.goal_tolerance_m,
+            radius_m: cfg.robot.radius_m,
+            field: None,
+            next_key_frame_s: 0.0,
+            anchors: Vec::new(),
+            known_ids: BTreeSet::new(),
+            new_anchors: false,
+            tour: Vec::new(),
+            tour_points: Vec::new(),
+            visits: FrontierVisits::default(),
+            goal: None,
+            benign_interrupt: false,
+            tsp_ms: None,
+            step_costs: super::StepCosts::default(),
+            flood: DistanceField::default(),
+            cost_rows: BTreeMap::new(),
+            row_searches: Vec::new(),
+            stats: ThpStats::default(),
+            ledger: PathLedger::default(),
+            escape_tries: BTreeMap::new(),
+        }
+    }
+}
+
+impl FieldPlanner for Thp {
+    fn update_field(&mut self, map: &Map, _pose: Pose2, time_s: f64) -> Result<()> {
+        if time_s + 1e-9 < self.next_key_frame_s {
+            return Ok(());
+        }
+        let first = self.field.is_none();
+        let field = self
+            .field
+            .get_or_insert_with(|| TensorField::new(*map.grid(), &self.field_cfg));
+        field.update(map)?;
+        self.next_key_frame_s = time_s + self.cfg.field_period_s;
+        self.stats.key_frames.add(1.0);
+        let before = self.anchors.len();
+        self.take_degenerate_points(map, first);
+        if self.anchors.len() > before {
+            // Alg. 1: new points break the tour loop; the next plan re-solves.
+            self.new_anchors = true;
+        }
+        Ok(())
+    }
+
+    fn field(&self) -> Option<&TensorField> {
+        self.field.as_ref()
+    }
+}
+
+impl Thp {
+    /// The next action (see [`Planner::plan`]).
+    fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
+        self.note_position(ctx.pose.position());
+        self.visits.ensure(ctx.map.grid());
+        self.tsp_ms = None;
+        let keep_goal =
+            self.goal.as_ref().is_some_and(|g| {
+                g.visit.is_open(ctx.map) && !g.final_segment && !g.visit.near_view
+            }) && !self.new_anchors;
+        if !keep_goal {
+            if let Some(action) = self.choose_goal(ctx)? {
+                return Ok(action);
+            }
+        }
+        if self.path_invalid(ctx) {
+            // Same goal, but the path is blocked or left behind: re-run A* to it.
+            let grid = *ctx.map.grid();
+            let robot = ctx.pose.position();
+            let (map, search_cfg) = (ctx.map, &ctx.cfg.search);
+            let goal = self.goal.clone().expect("a goal is set");
+            let start = plan::search_source(map, search_cfg, robot, self.radius_m);
+            if start.is_some() {
+                self.stats.astar_same_goal.add(1.0);
+            }
+            let path = start.and_then(|s| {
+                ctx.search.astar(
+                    &grid,
+                    |i| plan::step_cost(map, search_cfg, robot, i),
+                    s,
+                    goal.visit.aim,
+                )
+            });
+            let Some(path) = path else {
+                self.visits.finished(ctx.map, &goal.visit, false);
+                self.goal = None;
+                return Ok(Action::LookAround);
+            };
+            let cells = self
+                .visits
+                .cut_short(&grid, &path.cells, goal.visit.aim, self.view_m)
+                .to_vec();
+            self.set_goal(ctx, goal.visit, goal.node, &cells);
+        }
+        Ok(self.next_segment(ctx))
+    }
+}
+
+impl Planner for Thp {
+    fn name(&self) -> &'static str {
+        "thp"
+    }
+
+    fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        let action = self.next_action(ctx)?;
+        Ok(Plan::new(
+            action,
+            self.tour_points.clone(),
+            self.tsp_ms.take(),
+        ))
+    }
+
+    fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        self.note_position(ctx.pose.position());
+        if !matches!(action, Action::Follow { .. }) {
+            return false;
+        }
+        let Some(goal) = &mut self.goal else {
+            return false;
+        };
+        if !goal.visit.is_open(ctx.map) {
+            // Observed on the way: done (§3.4).
+            self.benign_interrupt = true;
+            return true;
+        }
+        if self.new_anchors {
+            // Alg. 1: new anchors break the loop and the TSP is re-solved.
+            self.benign_interrupt = true;
+            return true;
+        }
+        if goal.path_cells.iter().any(|&i| !ctx.passable(i)) {
+            // Blocked by a newly seen obstacle: A* is re-run to the same goal (not a failed attempt;
+            // a goal A* cannot reach any more is given up in `plan`).
+            goal.stale = true;
+            self.benign_interrupt = true;
+            return true;
+        }
+        false
+    }
+
+    fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
+        if std::mem::take(&mut self.benign_interrupt) {
+            if let Some(g) = &mut self.goal {
+                g.final_segment = !g.visit.is_open(ctx.map);
+            }
+            return;
+        }
+        let Some(goal) = &mut self.goal else { return };
+        if reached && !goal.final_segment {
+            // An advected segment ended; the goal stays.
+            return;
+        }
+        let goal = self.goal.take().expect("checked above");
+        self.visits.finished(ctx.map, &goal.visit, reached);
+    }
+
+    fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
+        Some(self)
+    }
+
+    fn stats(&self) -> BTreeMap<String, f64> {
+        let s = &self.stats;
+        super::counted(
+            [
+                ("key_frames", s.key_frames),
+                ("anchors_degenerate", s.anchors_degenerate),
+                ("anchors_frontier", s.anchors_frontier),
+                ("anchors_visited", s.anchors_visited),
+                ("groups_split", s.groups_split),
+                ("tsp_solves", s.tsp_solves),
+                ("tsp_nodes_max", s.tsp_nodes_max),
+                ("tsp_nodes_total", s.tsp_nodes_total),
+                ("cost_rows", s.cost_rows),
+                ("escapes", s.escapes),
+                ("escapes_given_up", s.escapes_given_up),
+                ("astar_new_goal", s.astar_new_goal),
+                ("astar_same_goal", s.astar_same_goal),
+                ("advected_segments", s.advected_segments),
+                ("advection_stops_at_points", s.advection_stops_at_points),
+                ("advection_fallbacks", s.advection_fallbacks),
+                ("advection_stalls", s.advection_stalls),
+                ("distant_views", s.distant_views),
+                ("groups_left_unfinished", s.groups_left_unfinished),
+                ("returns_to_unfinished", s.returns_to_unfinished),
+            ]
+            .into_iter()
+            .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),
+        )
+    }
+}

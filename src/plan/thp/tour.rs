@@ -1,0 +1,181 @@
+//! The online TSP over the groups (THP §3.3, Alg. 1, Eq. 6): where each tour starts, and the path
+//! costs between the groups' access cells.
+
+use super::*;
+
+/// Path cost from the robot to a node's anchor (its position): from the robot's distance field where
+/// the anchor's cell is reachable, else through its nearest member (member cost plus the straight
+/// distance on to the anchor), as a frontier anchor's centroid may fall off the known floor.
+pub(super) fn anchor_cost(
+    grid: &GridSpec,
+    df: &DistanceField,
+    node: &Node,
+    fronts: &[Frontier],
+) -> f32 {
+    grid.cell_of(node.pos)
+        .and_then(|c| df.cost_to(grid.index(c)))
+        .unwrap_or_else(|| {
+            node.members
+                .iter()
+                .map(|&m| fronts[m].cost + (fronts[m].pos - node.pos).norm() as f32)
+                .fold(f32::INFINITY, f32::min)
+        })
+}
+
+impl Thp {
+    /// Solves the fixed-start open TSP over `nodes` (Eq. 6) from the node whose anchor is nearest the
+    /// robot by path cost (Alg. 1: "start at the anchor nearest the robot"); each node is entered at
+    /// its least-cost member. Sets the tour (node keys in order).
+    pub(super) fn solve_tour(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &plan::StepCosts,
+        df: &DistanceField,
+        nodes: &[Node],
+        fronts: &[Frontier],
+    ) {
+        let t = Instant::now();
+        let access: Vec<usize> = nodes
+            .iter()
+            .map(|n| {
+                n.members
+                    .iter()
+                    .map(|&m| &fronts[m])
+                    .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
+                    .expect("nodes have members")
+                    .aim
+            })
+            .collect();
+        let grid = *ctx.map.grid();
+        // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
+        // while Alg. 2 scans a group until it is empty. Read together, a re-solve that new anchors
+        // trigger in the middle of a group may keep that group as the start
+        // (`thp.finish_group_first`), so the robot does not leave a half-scanned group for a nearer
+        // anchor and come back to it. Off by default: on real plans it removed those returns but
+        // lengthened the whole path (the nearest anchor's group is usually the cheaper detour).
+        let current = self
+            .goal
+            .as_ref()
+            .filter(|_| self.cfg.finish_group_first)
+            .and_then(|g| nodes.iter().position(|n| n.key == g.node));
+        let m = self.cost_matrix(ctx, costs, &access);
+        let order: Vec<usize> = match (current, self.cfg.tour_start) {
+            (Some(start), _) => tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order,
+            (None, TourStart::Robot) => {
+                // The robot is the fixed start (node `n`): its row is the robot's distance field
+                // to each access cell. No open tour comes back to its start, so its column is
+                // never used (filled symmetrically).
+                let n = nodes.len();
+                let from_robot: Vec<f64> = access
+                    .iter()
+                    .map(|&a| df.cost_to(a).map_or(f64::INFINITY, f64::from))
+                    .collect();
+                let with_robot = CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
+                    (true, true) => 0.0,
+                    (true, false) => from_robot[j],
+                    (false, true) => from_robot[i],
+                    (false, false) => m.get(i, j),
+                });
+                let tour = tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes);
+                tour.order[1..].to_vec()
+            }
+            (None, TourStart::NearestAnchor) => {
+                let start = (0..nodes.len())
+                    .min_by(|&a, &b| {
+                        let (fa, fb) = (
+                            anchor_cost(&grid, df, &nodes[a], fronts),
+                            anchor_cost(&grid, df, &nodes[b], fronts),
+                        );
+                        fa.total_cmp(&fb).then(a.cmp(&b))
+                    })
+                    .expect("at least one node");
+                tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order
+            }
+        };
+        self.tour = order.iter().map(|&i| nodes[i].key).collect();
+        self.tour_points = order.iter().map(|&i| nodes[i].pos).collect();
+        self.new_anchors = false;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.tsp_ms = Some(self.tsp_ms.unwrap_or(0.0) + ms);
+        self.stats.tsp_solves.add(1.0);
+        let n = nodes.len() as f64;
+        self.stats.tsp_nodes_max.raise_to(n);
+        self.stats.tsp_nodes_total.add(n);
+    }
+
+    /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
+    /// ([`Search::costs_to_targets`]). A row is reused while its source cell is unchanged and younger
+    /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); a pair missing from
+    /// an old row is read from the other node's row (path costs are symmetric up to the proximity
+    /// surcharge of the end cells).
+    pub(super) fn cost_matrix(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &plan::StepCosts,
+        access: &[usize],
+    ) -> CostMatrix {
+        let grid = *ctx.map.grid();
+        let now = ctx.time_s;
+        let refresh = self.cfg.cost_refresh_s;
+        self.cost_rows
+            .retain(|source, row| now - row.0 < refresh && access.contains(source));
+        let mut m = CostMatrix::new(access.len());
+        if access.len() < 2 {
+            return m;
+        }
+        let mut missing: Vec<usize> = Vec::new();
+        for &source in access {
+            if !self.cost_rows.contains_key(&source) && !missing.contains(&source) {
+                missing.push(source);
+            }
+        }
+        // The missing rows are independent Dijkstras: spread over the thread pool, each worker with
+        // its own search workspace (the result does not depend on the thread count).
+        let workers = missing.len().min(rayon::current_num_threads()).max(1);
+        while self.row_searches.len() < workers {
+            self.row_searches.push(Search::new(&grid));
+        }
+        let rows: Vec<(usize, Vec<Option<f32>>)> = self.row_searches[..workers]
+            .par_iter_mut()
+            .enumerate()
+            .flat_map_iter(|(w, search)| {
+                missing
+                    .iter()
+                    .skip(w)
+                    .step_by(workers)
+                    .map(|&source| {
+                        let row = search.costs_to_targets(
+                            &grid,
+                            |c| costs.get(c),
+                            source,
+                            access,
+                            f32::INFINITY,
+                        );
+                        (source, row)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        for (source, row_costs) in rows {
+            let row = access
+                .iter()
+                .zip(row_costs)
+                .map(|(&t, c)| (t, c.map_or(f64::INFINITY, f64::from)))
+                .collect();
+            self.cost_rows.insert(source, (now, row));
+            self.stats.cost_rows.add(1.0);
+        }
+        for (i, a) in access.iter().enumerate() {
+            for (j, b) in access.iter().enumerate() {
+                let c = self.cost_rows[a]
+                    .1
+                    .get(b)
+                    .or_else(|| self.cost_rows[b].1.get(a))
+                    .copied()
+                    .expect("the newer of two rows holds the pair");
+                m.set(i, j, c);
+            }
+        }
+        m
+    }
+}
