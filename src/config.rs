@@ -235,6 +235,7 @@ pub struct ThpConfig {
     pub drift_m: f64,
     pub finish_group_first: bool,
     pub tour_start: TourStart,
+    pub look_when_blocked: bool,
     pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }

@@ -10,8 +10,9 @@
 //! frontier it could reach or look at is left.
 
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
-use super::{Action, Plan, PlanContext, Planner};
+use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::Result;
+use std::collections::BTreeMap;
 
 /// The nearest-frontier planner.
 #[derive(Default)]
@@ -25,6 +26,8 @@ pub struct Greedy {
     /// for again, and this does not count as a failed attempt at it (as in THP). Counting it gave up
     /// frontiers behind doors whose first path crossed blind-zone cells that turned out inflated.
     rerouted: bool,
+    /// Looks through gaps too narrow to pass (`planner_stats.distant_views`).
+    distant_views: Count,
 }
 
 impl Greedy {
@@ -100,6 +103,7 @@ impl Greedy {
                 else {
                     return Ok(Action::Complete);
                 };
+                self.distant_views.add(1.0);
                 self.visit = Some(Visit {
                     target: segments[view.segment].cells.clone(),
                     aim: view.aim,
@@ -157,6 +161,10 @@ impl Planner for Greedy {
         let blocked = self.path_cells.iter().any(|&i| !ctx.passable(i));
         self.rerouted = blocked && !seen;
         seen || blocked
+    }
+
+    fn stats(&self) -> BTreeMap<String, f64> {
+        super::counted([("distant_views", self.distant_views)])
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {

@@ -10,8 +10,9 @@ pub(super) const MIN_SEGMENT_M: f64 = 0.3;
 #[derive(Clone, Debug)]
 pub(super) struct Goal {
     pub(super) visit: Visit,
-    /// Tour node the goal belongs to (anchor index in anchors mode).
-    pub(super) node: usize,
+    /// Tour node the goal belongs to (anchor index in anchors mode); `None` for a goal outside the
+    /// tour (a step back for the blind zone, a look through a gap).
+    pub(super) tour_node: Option<usize>,
     /// The A* path (cut short for viewing), world points from the robot to the goal.
     pub(super) path: Vec<Point2<f64>>,
     pub(super) path_cells: Vec<usize>,
@@ -78,11 +79,11 @@ impl Thp {
         &mut self,
         ctx: &PlanContext,
         visit: Visit,
-        node: usize,
+        tour_node: Option<usize>,
         cells: &[crate::grid::Cell],
     ) {
         let grid = ctx.map.grid();
-        if node == usize::MAX {
+        if tour_node.is_none() {
             self.ledger.kind = GoalKind::OutsideTour;
         }
         let path: Vec<Point2<f64>> = cells.iter().map(|c| grid.center(*c)).collect();
@@ -91,9 +92,9 @@ impl Thp {
                 field.set_path(&path);
             }
         }
-        self.goal = Some(Goal {
+        self.mode.drive(Goal {
             visit,
-            node,
+            tour_node,
             path_cells: cells.iter().skip(1).map(|c| grid.index(*c)).collect(),
             path,
             look_on_arrival: true,
@@ -108,7 +109,16 @@ impl Thp {
     /// The next motion toward the current goal: an advected pathline of the path-shaped field, or the
     /// A* path itself (advection off, or when the pathline is too short to be worth following).
     pub(super) fn next_segment(&mut self, ctx: &PlanContext) -> Action {
-        let goal = self.goal.as_mut().expect("a goal is set");
+        let Some(mut goal) = self.mode.stop() else {
+            return Action::LookAround;
+        };
+        let action = self.next_segment_of(ctx, &mut goal);
+        self.mode.drive(goal);
+        action
+    }
+
+    /// [`Thp::next_segment`] for `goal`.
+    fn next_segment_of(&mut self, ctx: &PlanContext, goal: &mut Goal) -> Action {
         let robot = ctx.pose.position();
         if goal.path.len() < 2 {
             goal.final_segment = true;
@@ -151,7 +161,6 @@ impl Thp {
                     if matches!(reason, StopReason::NearDegenerate(_)) {
                         self.stats.advection_stops_at_points.add(1.0);
                     }
-                    let goal = self.goal.as_mut().expect("a goal is set");
                     goal.final_segment = reaches_end;
                     return Action::Follow {
                         path: segment,
@@ -161,7 +170,6 @@ impl Thp {
                 self.stats.advection_fallbacks.add(1.0);
             }
         }
-        let goal = self.goal.as_mut().expect("a goal is set");
         goal.final_segment = true;
         Action::Follow {
             path: goal.path[progress..].to_vec(),
@@ -170,8 +178,7 @@ impl Thp {
     }
 
     /// Whether the goal's A* path must be re-run: blocked, or the robot strayed from it.
-    pub(super) fn path_invalid(&self, ctx: &PlanContext) -> bool {
-        let Some(goal) = &self.goal else { return true };
+    pub(super) fn path_invalid(&self, ctx: &PlanContext, goal: &Goal) -> bool {
         if goal.stale || goal.path.is_empty() {
             return true;
         }

@@ -4,6 +4,14 @@
 
 use super::*;
 
+/// What choosing a goal gave.
+pub(super) enum Choice {
+    /// An action to take now.
+    Act(Action),
+    /// Drive to the goal the mode now holds.
+    Drive,
+}
+
 /// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
 /// margin), metres.
 pub(super) const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
@@ -64,12 +72,12 @@ impl Thp {
     }
 
     /// Chooses the next goal: the least-cost frontier of the first node of the tour.
-    pub(super) fn choose_goal(&mut self, ctx: &mut PlanContext) -> Result<Option<Action>> {
+    pub(super) fn choose_goal(&mut self, ctx: &mut PlanContext) -> Result<Choice> {
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
         let Some(start) = plan::search_source(ctx.map, &ctx.cfg.search, robot, self.radius_m)
         else {
-            return Ok(Some(Action::LookAround));
+            return Ok(Choice::Act(Action::LookAround));
         };
         // The step costs and the robot's distance field live in buffers kept between steps.
         let mut costs = std::mem::take(&mut self.step_costs);
@@ -91,7 +99,7 @@ impl Thp {
         start: usize,
         costs: &plan::StepCosts,
         df: &DistanceField,
-    ) -> Result<Option<Action>> {
+    ) -> Result<Choice> {
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
         let map = ctx.map;
@@ -149,8 +157,8 @@ impl Thp {
                     }
                     self.stats.escapes.add(1.0);
                     self.ledger.kind = GoalKind::OutsideTour;
-                    self.goal = None;
-                    return Ok(Some(Action::Follow {
+                    self.mode.stop();
+                    return Ok(Choice::Act(Action::Follow {
                         path,
                         look_on_arrival: false,
                     }));
@@ -176,13 +184,13 @@ impl Thp {
                     let path = df
                         .path_to(&grid, view.viewpoint)
                         .expect("reachable by construction");
-                    self.set_goal(ctx, visit, usize::MAX, &path.cells);
-                    return Ok(None);
+                    self.set_goal(ctx, visit, None, &path.cells);
+                    return Ok(Choice::Drive);
                 }
-                return Ok(Some(Action::Complete));
+                return Ok(Choice::Act(Action::Complete));
             };
             let visit = f.visit(&grid, &segment_cells, true);
-            return Ok(self.blind_zone_goal(ctx, df, visit, usize::MAX));
+            return Ok(self.blind_zone_goal(ctx, df, visit, None));
         }
         let resolve = match self.cfg.grouping {
             Grouping::Anchors => {
@@ -218,15 +226,15 @@ impl Thp {
             .clone();
         let visit = f.visit(&grid, &segment_cells, false);
         // Keep the current A* path if the goal did not change.
-        if let Some(g) = &mut self.goal {
+        if let Some(g) = self.mode.goal_mut() {
             if g.visit.aim == visit.aim && !g.stale {
                 g.visit = visit;
-                g.node = first;
-                return Ok(None);
+                g.tour_node = Some(first);
+                return Ok(Choice::Drive);
             }
         }
         // A* calls by cause, for the advection claim (§3.5): a new goal, or the same goal again.
-        let same_goal = self.goal.as_ref().is_some_and(|g| g.visit.aim == visit.aim);
+        let same_goal = self.mode.goal().is_some_and(|g| g.visit.aim == visit.aim);
         if !same_goal {
             self.note_tour_goal(first, |k| nodes.iter().any(|n| n.key == k));
         }
@@ -238,32 +246,31 @@ impl Thp {
         let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
             self.visits.finished(map, &visit, false);
-            return Ok(Some(Action::LookAround));
+            return Ok(Choice::Act(Action::LookAround));
         };
         let cells = self
             .visits
             .cut_short(&grid, &path.cells, f.aim, self.view_m)
             .to_vec();
-        self.set_goal(ctx, visit, first, &cells);
-        Ok(None)
+        self.set_goal(ctx, visit, Some(first), &cells);
+        Ok(Choice::Drive)
     }
 
     /// Steps back from a frontier in the camera's blind zone to a cell from which the camera sees the
-    /// floor there ([`blind_zone_viewpoint`]), or turns in place where there is none. Returns the
-    /// action to take now, if not the goal's path.
+    /// floor there ([`blind_zone_viewpoint`]), or turns in place where there is none.
     pub(super) fn blind_zone_goal(
         &mut self,
         ctx: &PlanContext,
         df: &DistanceField,
         visit: Visit,
-        node: usize,
-    ) -> Option<Action> {
+        tour_node: Option<usize>,
+    ) -> Choice {
         let grid = *ctx.map.grid();
         let f = grid.center(grid.cell(visit.aim));
         let Some(v) = blind_zone_viewpoint(ctx.map, df, f, self.view_m) else {
-            self.goal = Some(Goal {
+            self.mode.drive(Goal {
                 visit,
-                node,
+                tour_node,
                 path: Vec::new(),
                 path_cells: Vec::new(),
                 look_on_arrival: true,
@@ -273,10 +280,10 @@ impl Thp {
                 progress_s: ctx.time_s,
                 direct: false,
             });
-            return Some(Action::LookAround);
+            return Choice::Act(Action::LookAround);
         };
         let path = df.path_to(&grid, v).expect("reachable by construction");
-        self.set_goal(ctx, visit, node, &path.cells);
-        None
+        self.set_goal(ctx, visit, tour_node, &path.cells);
+        Choice::Drive
     }
 }

@@ -6,8 +6,10 @@
 //!    points of the field (recomputed every `thp.field_period_s`), kept at their last position once
 //!    their point disappears, and visited for good once their frontier group is empty. `P*` is the set
 //!    of anchors new since the last solve; while it is empty the robot follows the tour, otherwise the
-//!    fixed-start open TSP is re-solved from the anchor nearest the robot by path cost (Alg. 1 breaks
-//!    its loop). Costs are path costs under the shared search cost rule, one Dijkstra per node
+//!    fixed-start open TSP is re-solved (Alg. 1 breaks its loop). Where the tour starts is room the
+//!    paper leaves (`thp.tour_start`, [`tour`]): Alg. 1 says "the anchor nearest the robot", which
+//!    can lie behind the robot while the rest of the tour lies ahead; by default the robot's own cell
+//!    is the fixed start, so the first group is the one the whole tour favours. Costs are path costs under the shared search cost rule, one Dijkstra per node
 //!    ([`Search::costs_to_targets`]) rather than pairwise A*. Exact Held–Karp up to
 //!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
 //! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the
@@ -22,13 +24,29 @@
 //!    or its pathline strays more than `thp.drift_m` from the path.
 //!
 //! Frontiers are visited with GREEDY's rules ([`super::frontier_visit`]): stop short, look, and give
-//! up a frontier still unobserved after the robot stood on it and looked. The run is complete when
+//! up a frontier still unobserved after the robot stood on it and looked. A frontier approached once
+//! stays a member of its group even inside the camera's blind zone around the robot, so its second
+//! approach comes while the robot is there ([`Thp::frontiers`] says why). The run is complete when
 //! no anchor and no reachable, observable frontier is left.
 //!
-//! Mechanisms the paper does not have, each a config key: `thp.advection_stall_s` (on, 5 s): when
-//! advection has not brought the robot farther along its A* path for that long, the robot follows the
-//! A* path itself to that goal (counted as `advection_stalls`); pathlines around a wedge or a table
-//! can circle for good, and such runs ended `stuck`.
+//! What a *visited* anchor is (room the paper leaves): one whose group holds no frontier in a plan.
+//!
+//! Control state: [`mode::Mode`] (idle, driving to a goal, blocked), with every change of it in
+//! `mode.rs`.
+//!
+//! Mechanisms the paper does not have, each a config key:
+//! - `thp.advection_stall_s` (on, 5 s): when advection has not brought the robot farther along its A*
+//!   path for that long, the robot follows the A* path itself to that goal (counted as
+//!   `advection_stalls`); pathlines around a wedge or a table can circle for good, and such runs ended
+//!   `stuck`.
+//! - `thp.look_when_blocked` (on): an attempt that could not move the robot at all (the motion guard
+//!   refused every move, typically in a doorway beside never-seen cells) is followed by a look around
+//!   before the next goal (`looks_when_blocked`). Without it the robot tried goal after goal from the
+//!   same spot until the run ended `stuck`.
+//! - `thp.finish_group_first` (off): see [`tour`].
+//!
+//! Not config keys, because they only bound failures: an escape from a pocket gives its target up
+//! after `MAX_ESCAPES` tries (`escapes_given_up`).
 //!
 //! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
 //! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
@@ -54,15 +72,21 @@ use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
+/// An attempt that moved the robot less than this did not move it at all (`Mode::Blocked`), metres.
+const BLOCKED_MOVE_M: f64 = 0.05;
+
 mod following;
 mod goals;
 mod grouping;
 mod ledger;
+mod mode;
 mod tour;
 
 use following::*;
+use goals::Choice;
 use grouping::*;
 use ledger::*;
+use mode::Mode;
 
 /// The THP planner. Cloneable, so that a bench can replay one planning step from a saved state.
 #[derive(Clone)]
@@ -84,9 +108,9 @@ pub struct Thp {
     tour: Vec<usize>,
     tour_points: Vec<Point2<f64>>,
     visits: FrontierVisits,
-    goal: Option<Goal>,
-    /// The action was abandoned for a reason that is not a failed attempt (new anchors).
-    benign_interrupt: bool,
+    mode: Mode,
+    /// Where the robot was when the action in flight began.
+    action_from: Point2<f64>,
     tsp_ms: Option<f64>,
     /// Buffers of the planning step's cell costs and the robot's distance field, kept between steps.
     step_costs: plan::StepCosts,
@@ -121,6 +145,7 @@ struct ThpStats {
     advection_stops_at_points: Count,
     advection_fallbacks: Count,
     advection_stalls: Count,
+    looks_when_blocked: Count,
     distant_views: Count,
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
@@ -145,8 +170,8 @@ impl Thp {
             tour: Vec::new(),
             tour_points: Vec::new(),
             visits: FrontierVisits::default(),
-            goal: None,
-            benign_interrupt: false,
+            mode: Mode::Idle,
+            action_from: Point2::origin(),
             tsp_ms: None,
             step_costs: super::StepCosts::default(),
             flood: DistanceField::default(),
@@ -191,21 +216,29 @@ impl Thp {
         self.note_position(ctx.pose.position());
         self.visits.ensure(ctx.map.grid());
         self.tsp_ms = None;
+        if self.mode.unblock() {
+            self.stats.looks_when_blocked.add(1.0);
+            return Ok(Action::LookAround);
+        }
         let keep_goal =
-            self.goal.as_ref().is_some_and(|g| {
+            self.mode.goal().is_some_and(|g| {
                 g.visit.is_open(ctx.map) && !g.final_segment && !g.visit.near_view
             }) && !self.new_anchors;
         if !keep_goal {
-            if let Some(action) = self.choose_goal(ctx)? {
+            if let Choice::Act(action) = self.choose_goal(ctx)? {
                 return Ok(action);
             }
         }
-        if self.path_invalid(ctx) {
+        let Some(goal) = self.mode.goal() else {
+            // `Choice::Drive` leaves a goal to drive to; turn in place should it not.
+            return Ok(Action::LookAround);
+        };
+        if self.path_invalid(ctx, goal) {
+            let goal = goal.clone();
             // Same goal, but the path is blocked or left behind: re-run A* to it.
             let grid = *ctx.map.grid();
             let robot = ctx.pose.position();
             let (map, search_cfg) = (ctx.map, &ctx.cfg.search);
-            let goal = self.goal.clone().expect("a goal is set");
             let start = plan::search_source(map, search_cfg, robot, self.radius_m);
             if start.is_some() {
                 self.stats.astar_same_goal.add(1.0);
@@ -220,14 +253,14 @@ impl Thp {
             });
             let Some(path) = path else {
                 self.visits.finished(ctx.map, &goal.visit, false);
-                self.goal = None;
+                self.mode.stop();
                 return Ok(Action::LookAround);
             };
             let cells = self
                 .visits
                 .cut_short(&grid, &path.cells, goal.visit.aim, self.view_m)
                 .to_vec();
-            self.set_goal(ctx, goal.visit, goal.node, &cells);
+            self.set_goal(ctx, goal.visit, goal.tour_node, &cells);
         }
         Ok(self.next_segment(ctx))
     }
@@ -240,6 +273,7 @@ impl Planner for Thp {
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
         let action = self.next_action(ctx)?;
+        self.action_from = ctx.pose.position();
         Ok(Plan::new(
             action,
             self.tour_points.clone(),
@@ -252,43 +286,39 @@ impl Planner for Thp {
         if !matches!(action, Action::Follow { .. }) {
             return false;
         }
-        let Some(goal) = &mut self.goal else {
+        let Some(goal) = self.mode.goal_mut() else {
             return false;
         };
         if !goal.visit.is_open(ctx.map) {
             // Observed on the way: done (§3.4).
-            self.benign_interrupt = true;
+            self.mode.interrupt();
             return true;
         }
         if self.new_anchors {
             // Alg. 1: new anchors break the loop and the TSP is re-solved.
-            self.benign_interrupt = true;
+            self.mode.interrupt();
             return true;
         }
         if goal.path_cells.iter().any(|&i| !ctx.passable(i)) {
             // Blocked by a newly seen obstacle: A* is re-run to the same goal (not a failed attempt;
             // a goal A* cannot reach any more is given up in `plan`).
             goal.stale = true;
-            self.benign_interrupt = true;
+            self.mode.interrupt();
             return true;
         }
         false
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
-        if std::mem::take(&mut self.benign_interrupt) {
-            if let Some(g) = &mut self.goal {
-                g.final_segment = !g.visit.is_open(ctx.map);
-            }
-            return;
+        // Without `thp.look_when_blocked`, every attempt counts as having moved the robot.
+        let moved = !self.cfg.look_when_blocked
+            || (ctx.pose.position() - self.action_from).norm() >= BLOCKED_MOVE_M;
+        if let Some((visit, reached)) = self
+            .mode
+            .action_ended(reached, moved, |visit| visit.is_open(ctx.map))
+        {
+            self.visits.finished(ctx.map, &visit, reached);
         }
-        let Some(goal) = &mut self.goal else { return };
-        if reached && !goal.final_segment {
-            // An advected segment ended; the goal stays.
-            return;
-        }
-        let goal = self.goal.take().expect("checked above");
-        self.visits.finished(ctx.map, &goal.visit, reached);
     }
 
     fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
@@ -316,6 +346,7 @@ impl Planner for Thp {
                 ("advection_stops_at_points", s.advection_stops_at_points),
                 ("advection_fallbacks", s.advection_fallbacks),
                 ("advection_stalls", s.advection_stalls),
+                ("looks_when_blocked", s.looks_when_blocked),
                 ("distant_views", s.distant_views),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),

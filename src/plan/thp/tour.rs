@@ -23,9 +23,14 @@ pub(super) fn anchor_cost(
 }
 
 impl Thp {
-    /// Solves the fixed-start open TSP over `nodes` (Eq. 6) from the node whose anchor is nearest the
-    /// robot by path cost (Alg. 1: "start at the anchor nearest the robot"); each node is entered at
-    /// its least-cost member. Sets the tour (node keys in order).
+    /// Solves the fixed-start open TSP over `nodes` (Eq. 6); each node is entered at its least-cost
+    /// member. Sets the tour (node keys in order). The start, by `thp.tour_start` (and
+    /// `thp.finish_group_first`):
+    /// - `robot` (default): the robot's cell is an extra node, the fixed start, with the robot's
+    ///   path costs to each access cell; the first group is the one the cheapest whole tour begins
+    ///   with.
+    /// - `nearest_anchor`: the node whose anchor is nearest the robot by path cost (Alg. 1, "start at
+    ///   the anchor nearest the robot"), even when it lies behind the robot and the rest ahead.
     pub(super) fn solve_tour(
         &mut self,
         ctx: &mut PlanContext,
@@ -54,10 +59,11 @@ impl Thp {
         // anchor and come back to it. Off by default: on real plans it removed those returns but
         // lengthened the whole path (the nearest anchor's group is usually the cheaper detour).
         let current = self
-            .goal
-            .as_ref()
+            .mode
+            .goal()
             .filter(|_| self.cfg.finish_group_first)
-            .and_then(|g| nodes.iter().position(|n| n.key == g.node));
+            .and_then(|g| g.tour_node)
+            .and_then(|k| nodes.iter().position(|n| n.key == k));
         let m = self.cost_matrix(ctx, costs, &access);
         let order: Vec<usize> = match (current, self.cfg.tour_start) {
             (Some(start), _) => tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order,
