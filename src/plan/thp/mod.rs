@@ -8,8 +8,9 @@
 //!    of anchors new since the last solve; while it is empty the robot follows the tour, otherwise the
 //!    fixed-start open TSP is re-solved (Alg. 1 breaks its loop). Where the tour starts is room the
 //!    paper leaves (`thp.tour_start`, [`tour`]): Alg. 1 says "the anchor nearest the robot", which
-//!    can lie behind the robot while the rest of the tour lies ahead; by default the robot's own cell
-//!    is the fixed start, so the first group is the one the whole tour favours. Costs are path costs under the shared search cost rule, one Dijkstra per node
+//!    can lie behind the robot while the rest of the tour lies ahead; `"robot"` makes the robot's own
+//!    cell the fixed start, so the first group is the one the whole tour favours. The paper's reading
+//!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs are path costs under the shared search cost rule, one Dijkstra per node
 //!    ([`Search::costs_to_targets`]) rather than pairwise A*. Exact Held–Karp up to
 //!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
 //! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the

@@ -26,10 +26,10 @@ impl Thp {
     /// Solves the fixed-start open TSP over `nodes` (Eq. 6); each node is entered at its least-cost
     /// member. Sets the tour (node keys in order). The start, by `thp.tour_start` (and
     /// `thp.finish_group_first`):
-    /// - `robot` (default): the robot's cell is an extra node, the fixed start, with the robot's
+    /// - `robot`: the robot's cell is an extra node, the fixed start, with the robot's
     ///   path costs to each access cell; the first group is the one the cheapest whole tour begins
     ///   with.
-    /// - `nearest_anchor`: the node whose anchor is nearest the robot by path cost (Alg. 1, "start at
+    /// - `nearest_anchor` (default): the node whose anchor is nearest the robot by path cost (Alg. 1, "start at
     ///   the anchor nearest the robot"), even when it lies behind the robot and the rest ahead.
     pub(super) fn solve_tour(
         &mut self,
