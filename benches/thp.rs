@@ -13,7 +13,7 @@ use std::time::Duration;
 use tensorscout::map::Map;
 use tensorscout::plan::search::Search;
 use tensorscout::plan::thp::Thp;
-use tensorscout::plan::{Action, FieldPlanner, Plan, PlanContext, Planner};
+use tensorscout::plan::{Action, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
 use tensorscout::sim::{self, Simulation, World};
 use tensorscout::{scene, Config, Pose2, Result};
 
@@ -74,7 +74,7 @@ fn replay(cfg: &Config, snap: &Snapshot, thp: &mut Thp, search: &mut Search) -> 
         map: &snap.map,
         pose: snap.pose,
         time_s: snap.time_s,
-        cfg,
+        cfg: &PlanParams::from(cfg),
         search,
     };
     let plan = thp.plan(&mut ctx).expect("a saved step plans again");

@@ -82,8 +82,7 @@ impl Planner for NearestCell {
 
 /// Explores the scene at `path` with [`NearestCell`] for at most `budget_s` simulated seconds.
 pub fn explore(path: &std::path::Path, budget_s: f64) -> Result<RunOutput> {
-    let mut cfg = Config::default();
-    cfg.sim.budget_s = budget_s;
+    let cfg = Config::load(None, &[format!("sim.budget_s={budget_s}")])?;
     let scene = scene::load(path, &cfg.scene)?;
     let world = World::new(&scene, &cfg, None)?;
     let sim = Simulation::with_planner(&scene, world, &cfg, Box::new(NearestCell::default()));

@@ -12,6 +12,101 @@ use std::path::Path;
 /// The default config, with a comment on every key.
 pub const DEFAULT_TOML: &str = include_str!("../configs/default.toml");
 
+/// A finite number above zero: a length, duration or rate that must not vanish (the unit is in the
+/// key's name). Parsed, not validated afterwards: a config that holds one has been checked, and the
+/// error names the dotted key (`config key `camera.max_range_m` must be a positive number, got -1`).
+/// It serialises as the plain number, so the TOML and `config_hash` are those of an `f64`.
+#[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64", into = "f64")]
+pub struct Positive(f64);
+
+/// A finite number of at least zero (a length or amount that may be switched off with 0); see
+/// [`Positive`].
+#[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64", into = "f64")]
+pub struct NonNegative(f64);
+
+/// The start of every message a checked number's parse error carries: [`Config::load`] puts the
+/// dotted key in front of it, as it does for the checks of [`Config::validate`].
+const CHECK_PREFIX: &str = "must ";
+
+impl Positive {
+    /// The number, if it is finite and above zero; else the error `positive` names a key with.
+    pub fn new(v: f64) -> std::result::Result<Positive, String> {
+        if v.is_finite() && v > 0.0 {
+            Ok(Positive(v))
+        } else {
+            Err(format!(
+                "{CHECK_PREFIX}be a positive number, got {}",
+                crate::util::short_number(v)
+            ))
+        }
+    }
+
+    pub fn get(self) -> f64 {
+        self.0
+    }
+}
+
+impl NonNegative {
+    /// The number, if it is finite and at least zero; else the error `non_negative` names a key
+    /// with.
+    pub fn new(v: f64) -> std::result::Result<NonNegative, String> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(NonNegative(v))
+        } else {
+            Err(format!(
+                "{CHECK_PREFIX}be zero or positive, got {}",
+                crate::util::short_number(v)
+            ))
+        }
+    }
+
+    pub fn get(self) -> f64 {
+        self.0
+    }
+}
+
+impl TryFrom<f64> for Positive {
+    type Error = String;
+    fn try_from(v: f64) -> std::result::Result<Self, String> {
+        Positive::new(v)
+    }
+}
+
+impl TryFrom<f64> for NonNegative {
+    type Error = String;
+    fn try_from(v: f64) -> std::result::Result<Self, String> {
+        NonNegative::new(v)
+    }
+}
+
+impl From<Positive> for f64 {
+    fn from(v: Positive) -> f64 {
+        v.0
+    }
+}
+
+impl From<NonNegative> for f64 {
+    fn from(v: NonNegative) -> f64 {
+        v.0
+    }
+}
+
+/// Shown as the plain number.
+impl std::fmt::Display for Positive {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+/// Shown as the plain number.
+impl std::fmt::Display for NonNegative {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
@@ -65,9 +160,9 @@ pub struct LogConfig {
 #[serde(deny_unknown_fields)]
 pub struct SimConfig {
     pub dt_s: f64,
-    pub budget_s: f64,
-    pub stuck_timeout_s: f64,
-    pub stuck_min_gain_m3: f64,
+    pub budget_s: Positive,
+    pub stuck_timeout_s: Positive,
+    pub stuck_min_gain_m3: NonNegative,
     pub curve_interval_s: f64,
     pub initial_look_around: bool,
     pub spawn: SpawnMode,
@@ -77,10 +172,10 @@ pub struct SimConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneConfig {
-    pub wall_height_m: f64,
+    pub wall_height_m: Positive,
     pub y_up: bool,
     pub unknown_as_free: bool,
-    pub max_extent_m: f64,
+    pub max_extent_m: Positive,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -107,12 +202,12 @@ pub struct MapConfig {
 pub struct CameraConfig {
     pub hfov_deg: f64,
     pub vfov_deg: f64,
-    pub min_range_m: f64,
-    pub max_range_m: f64,
+    pub min_range_m: NonNegative,
+    pub max_range_m: Positive,
     pub width: usize,
     pub height: usize,
-    pub mount_height_m: f64,
-    pub rate_hz: f64,
+    pub mount_height_m: Positive,
+    pub rate_hz: Positive,
     pub renderer: DepthRenderer,
 }
 
@@ -139,10 +234,10 @@ pub struct RobotConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotionConfig {
-    pub turn_in_place_rad: f64,
-    pub lookahead_m: f64,
+    pub turn_in_place_rad: Positive,
+    pub lookahead_m: Positive,
     pub goal_tolerance_m: f64,
-    pub slow_clearance_m: f64,
+    pub slow_clearance_m: NonNegative,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -157,7 +252,7 @@ pub struct SearchConfig {
 #[serde(deny_unknown_fields)]
 pub struct GreedyConfig {
     pub look_around_on_arrival: bool,
-    pub view_distance_m: f64,
+    pub view_distance_m: NonNegative,
 }
 
 /// The tensor field (THP Eq. 11, TENSOR §4 and §6); see `src/field/`.
@@ -325,8 +420,7 @@ fn count_within(key: &str, v: u64, lo: u64, hi: u64) -> Result<()> {
 }
 
 impl MapConfig {
-    /// The `map` section's own checks (those that relate it to other sections stay in
-    /// [`Config::validate`]).
+    /// The `map` section's own checks.
     fn validate(&self) -> Result<()> {
         positive("map.voxel_m", self.voxel_m)?;
         within("map.voxel_m", self.voxel_m, 0.01, 1.0)?;
@@ -359,6 +453,7 @@ impl MapConfig {
         }
         non_negative("map.inflation_margin_m", self.inflation_margin_m)?;
         positive("map.frontier_segment_max_m", self.frontier_segment_max_m)?;
+        non_negative("map.proximity_band_m", self.proximity_band_m)?;
         Ok(())
     }
 }
@@ -522,11 +617,14 @@ impl Config {
     fn from_value(tree: toml::Table) -> Result<Config> {
         let de = toml::Value::Table(tree);
         serde_path_to_error::deserialize(de).map_err(|e| {
-            Error::usage(format!(
-                "config key `{}`: {}",
-                e.path(),
-                one_line(&e.inner().to_string())
-            ))
+            let msg = one_line(&e.inner().to_string());
+            if msg.starts_with(CHECK_PREFIX) {
+                // A checked number's own message reads on from the key, as `validate`'s do
+                // (without the parser's ` in `key`` tail: the key leads already).
+                let own = msg.split(" in `").next().unwrap_or(&msg);
+                return Error::usage(format!("config key `{}` {own}", e.path()));
+            }
+            Error::usage(format!("config key `{}`: {msg}", e.path()))
         })
     }
 
@@ -540,60 +638,103 @@ impl Config {
         format!("{:016x}", crate::util::fnv1a64(self.to_toml().as_bytes()))
     }
 
-    /// Rejects values that are of the right type but make no sense, naming the key.
+    /// Rejects values that are of the right type but make no sense, naming the key. Each section
+    /// checks its own keys (a check that relates a section to another takes the other value as an
+    /// argument); [`Positive`] and [`NonNegative`] keys were checked when the tree was parsed. The
+    /// order is that of the sections in the file, so that a config with several faults names the
+    /// first one.
     pub fn validate(&self) -> Result<()> {
+        self.sim.validate()?;
+        self.metrics.validate(self.map.voxel_m)?;
+        self.log.validate()?;
+        self.scene.validate()?;
+        self.map.validate()?;
+        self.camera.validate()?;
+        self.robot.validate(self.sim.dt_s)?;
+        self.greedy.validate()?;
+        self.search.validate()?;
+        self.motion.validate()?;
+        self.field.validate()?;
+        self.thp.validate()?;
+        self.tensor.validate()?;
+        self.nbv.validate()?;
+        Ok(())
+    }
+}
+
+impl SimConfig {
+    fn validate(&self) -> Result<()> {
         // Bounds on what costs time or memory (stated in configs/default.toml).
-        within("sim.dt_s", self.sim.dt_s, 0.001, 1.0)?;
-        positive("sim.budget_s", self.sim.budget_s)?;
-        within("sim.budget_s", self.sim.budget_s, 0.0, 1e6)?;
-        if self.sim.dt_s > self.sim.budget_s {
+        within("sim.dt_s", self.dt_s, 0.001, 1.0)?;
+        within("sim.budget_s", self.budget_s.get(), 0.0, 1e6)?;
+        if self.dt_s > self.budget_s.get() {
             return Err(Error::usage(format!(
                 "config key `sim.dt_s` ({}) must not exceed `sim.budget_s` ({}): the run would take no step",
-                self.sim.dt_s, self.sim.budget_s
+                self.dt_s, self.budget_s.get()
             )));
         }
-        positive("sim.stuck_timeout_s", self.sim.stuck_timeout_s)?;
-        non_negative("sim.stuck_min_gain_m3", self.sim.stuck_min_gain_m3)?;
-        within("sim.curve_interval_s", self.sim.curve_interval_s, 0.01, 1e6)?;
+        within("sim.curve_interval_s", self.curve_interval_s, 0.01, 1e6)?;
         within(
             "sim.random_spawn_margin_m",
-            self.sim.random_spawn_margin_m,
+            self.random_spawn_margin_m,
             0.0,
             10.0,
         )?;
+        Ok(())
+    }
+}
+
+impl MetricsConfig {
+    /// The observable set's sampling; its spacing may not be finer than the map's voxels
+    /// (`voxel_m`).
+    fn validate(&self, voxel_m: f64) -> Result<()> {
         within(
             "metrics.observable_spacing_m",
-            self.metrics.observable_spacing_m,
+            self.observable_spacing_m,
             0.01,
             10.0,
         )?;
-        if self.metrics.observable_spacing_m < self.map.voxel_m {
+        if self.observable_spacing_m < voxel_m {
             return Err(Error::usage(format!(
                 "config key `metrics.observable_spacing_m` ({}) must be at least `map.voxel_m` ({})",
-                self.metrics.observable_spacing_m, self.map.voxel_m
+                self.observable_spacing_m, voxel_m
             )));
         }
-        if !(1..=64).contains(&self.metrics.observable_yaws) {
+        if !(1..=64).contains(&self.observable_yaws) {
             return Err(Error::usage(format!(
                 "config key `metrics.observable_yaws` must lie in 1..=64, got {}",
-                self.metrics.observable_yaws
+                self.observable_yaws
             )));
         }
-        within("log.map_every_s", self.log.map_every_s, 0.01, 1e6)?;
-        if !(1..=19).contains(&self.log.zstd_level) {
+        Ok(())
+    }
+}
+
+impl LogConfig {
+    fn validate(&self) -> Result<()> {
+        within("log.map_every_s", self.map_every_s, 0.01, 1e6)?;
+        if !(1..=19).contains(&self.zstd_level) {
             return Err(Error::usage(format!(
                 "config key `log.zstd_level` must be 1..=19, got {}",
-                self.log.zstd_level
+                self.zstd_level
             )));
         }
-        count_within("log.chunk_size_kb", self.log.chunk_size_kb, 1, 65_536)?;
-        positive("scene.wall_height_m", self.scene.wall_height_m)?;
-        positive("scene.max_extent_m", self.scene.max_extent_m)?;
-        self.map.validate()?;
-        let c = &self.camera;
+        count_within("log.chunk_size_kb", self.chunk_size_kb, 1, 65_536)
+    }
+}
+
+impl SceneConfig {
+    /// Both lengths are [`Positive`]: nothing is left to check.
+    fn validate(&self) -> Result<()> {
+        Ok(())
+    }
+}
+
+impl CameraConfig {
+    fn validate(&self) -> Result<()> {
         for (key, v) in [
-            ("camera.hfov_deg", c.hfov_deg),
-            ("camera.vfov_deg", c.vfov_deg),
+            ("camera.hfov_deg", self.hfov_deg),
+            ("camera.vfov_deg", self.vfov_deg),
         ] {
             if !(v > 0.0 && v < 180.0) {
                 return Err(Error::usage(format!(
@@ -601,47 +742,65 @@ impl Config {
                 )));
             }
         }
-        non_negative("camera.min_range_m", c.min_range_m)?;
-        positive("camera.max_range_m", c.max_range_m)?;
-        within("camera.max_range_m", c.max_range_m, 0.0, 100.0)?;
-        if c.min_range_m >= c.max_range_m {
+        within("camera.max_range_m", self.max_range_m.get(), 0.0, 100.0)?;
+        if self.min_range_m.get() >= self.max_range_m.get() {
             return Err(Error::usage(
                 "config key `camera.min_range_m` must be below `camera.max_range_m`",
             ));
         }
-        count_within("camera.width", c.width as u64, 1, 2048)?;
-        count_within("camera.height", c.height as u64, 1, 2048)?;
-        positive("camera.mount_height_m", c.mount_height_m)?;
-        positive("camera.rate_hz", c.rate_hz)?;
-        within("camera.rate_hz", c.rate_hz, 0.0, 1000.0)?;
-        positive("robot.radius_m", self.robot.radius_m)?;
-        positive("robot.height_m", self.robot.height_m)?;
-        positive("robot.max_speed_mps", self.robot.max_speed_mps)?;
-        positive("robot.max_turn_rate_rps", self.robot.max_turn_rate_rps)?;
+        count_within("camera.width", self.width as u64, 1, 2048)?;
+        count_within("camera.height", self.height as u64, 1, 2048)?;
+        within("camera.rate_hz", self.rate_hz.get(), 0.0, 1000.0)?;
+        Ok(())
+    }
+}
+
+impl RobotConfig {
+    /// The robot's size and speeds, and the step `dt_s` they allow.
+    fn validate(&self, dt_s: f64) -> Result<()> {
+        positive("robot.radius_m", self.radius_m)?;
+        positive("robot.height_m", self.height_m)?;
+        positive("robot.max_speed_mps", self.max_speed_mps)?;
+        positive("robot.max_turn_rate_rps", self.max_turn_rate_rps)?;
         // A step at full speed may not carry the robot further than its own radius: motion,
         // collision checks and sensing happen once per step, so a longer step could jump the disc
         // past a wall.
-        if self.sim.dt_s * self.robot.max_speed_mps > self.robot.radius_m * (1.0 + 1e-9) {
+        if dt_s * self.max_speed_mps > self.radius_m * (1.0 + 1e-9) {
             return Err(Error::usage(format!(
                 "config key `sim.dt_s` ({} s) is too large: at robot.max_speed_mps = {} a step would carry the robot more than its radius robot.radius_m = {} m (at most {} s)",
-                self.sim.dt_s,
-                self.robot.max_speed_mps,
-                self.robot.radius_m,
-                crate::util::short_number(self.robot.radius_m / self.robot.max_speed_mps)
+                dt_s,
+                self.max_speed_mps,
+                self.radius_m,
+                crate::util::short_number(self.radius_m / self.max_speed_mps)
             )));
         }
-        non_negative("greedy.view_distance_m", self.greedy.view_distance_m)?;
-        non_negative("map.proximity_band_m", self.map.proximity_band_m)?;
-        non_negative("search.proximity_cost", self.search.proximity_cost)?;
-        non_negative(
-            "search.near_unknown_radius_m",
-            self.search.near_unknown_radius_m,
-        )?;
-        positive("motion.turn_in_place_rad", self.motion.turn_in_place_rad)?;
-        positive("motion.lookahead_m", self.motion.lookahead_m)?;
-        positive("motion.goal_tolerance_m", self.motion.goal_tolerance_m)?;
-        non_negative("motion.slow_clearance_m", self.motion.slow_clearance_m)?;
-        let f = &self.field;
+        Ok(())
+    }
+}
+
+impl GreedyConfig {
+    /// `view_distance_m` is [`NonNegative`]: nothing is left to check.
+    fn validate(&self) -> Result<()> {
+        Ok(())
+    }
+}
+
+impl SearchConfig {
+    fn validate(&self) -> Result<()> {
+        non_negative("search.proximity_cost", self.proximity_cost)?;
+        non_negative("search.near_unknown_radius_m", self.near_unknown_radius_m)
+    }
+}
+
+impl MotionConfig {
+    fn validate(&self) -> Result<()> {
+        positive("motion.goal_tolerance_m", self.goal_tolerance_m)
+    }
+}
+
+impl FieldConfig {
+    fn validate(&self) -> Result<()> {
+        let f = self;
         for (key, v) in [
             ("field.d_s_m", f.d_s_m),
             ("field.sigma_m", f.sigma_m),
@@ -705,9 +864,6 @@ impl Config {
             0,
             100_000,
         )?;
-        self.thp.validate()?;
-        self.tensor.validate()?;
-        self.nbv.validate()?;
         Ok(())
     }
 }
@@ -804,7 +960,7 @@ mod tests {
         assert_eq!(c.map.voxel_m, 0.1);
         assert_eq!(c.camera.width, 80);
         assert_eq!(c.robot.radius_m, 0.25);
-        assert_eq!(c.sim.budget_s, 1800.0);
+        assert_eq!(c.sim.budget_s.get(), 1800.0);
     }
 
     #[test]
@@ -863,6 +1019,50 @@ mod tests {
             e.to_string(),
             "config key `map.voxel_m` must be a positive number, got -0.1"
         );
+    }
+
+    /// A checked number is refused while the tree is parsed, with the message the old check gave
+    /// after it; a good one reads back as the plain number.
+    #[test]
+    fn checked_numbers_name_their_key() {
+        for (set, msg) in [
+            (
+                "camera.max_range_m=-1",
+                "config key `camera.max_range_m` must be a positive number, got -1",
+            ),
+            (
+                "camera.min_range_m=-0.5",
+                "config key `camera.min_range_m` must be zero or positive, got -0.5",
+            ),
+            (
+                "sim.budget_s=0",
+                "config key `sim.budget_s` must be a positive number, got 0",
+            ),
+            (
+                "motion.lookahead_m=nan",
+                "config key `motion.lookahead_m` must be a positive number, got NaN",
+            ),
+            (
+                "greedy.view_distance_m=-inf",
+                "config key `greedy.view_distance_m` must be zero or positive, got -inf",
+            ),
+            (
+                "scene.max_extent_m=\"far\"",
+                "config key `scene.max_extent_m`: invalid type: string \"far\", expected f64 in `scene.max_extent_m`",
+            ),
+        ] {
+            let e = Config::load(None, &[set.into()]).unwrap_err();
+            assert_eq!(e.to_string(), msg, "{set}");
+            assert_eq!(e.exit_code(), 2);
+        }
+        let c = Config::load(None, &["camera.max_range_m=4".into()]).unwrap();
+        assert_eq!(c.camera.max_range_m.get(), 4.0);
+        assert!(c.to_toml().contains("\nmax_range_m = 4.0\n"));
+        assert_eq!(
+            Positive::new(0.0),
+            Err("must be a positive number, got 0".into())
+        );
+        assert_eq!(NonNegative::new(0.0).map(NonNegative::get), Ok(0.0));
     }
 
     #[test]

@@ -132,7 +132,7 @@ fn tensor_as_published_reports_why_it_stops() {
             .copied()
             .unwrap_or(0.0);
         let cause_ok = match r.termination {
-            Termination::Stuck => no_route == 1.0 || r.sim_time_s >= cfg.sim.stuck_timeout_s,
+            Termination::Stuck => no_route == 1.0 || r.sim_time_s >= cfg.sim.stuck_timeout_s.get(),
             Termination::Complete | Termination::Budget => no_route == 0.0,
             _ => false,
         };

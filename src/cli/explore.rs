@@ -195,7 +195,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         None => None,
     };
     let mut progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
-        let bar = ProgressBar::new(cfg.sim.budget_s as u64);
+        let bar = ProgressBar::new(cfg.sim.budget_s.get() as u64);
         bar.set_style(
             ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] sim {pos}/{len} s {bar:30} {msg}",

@@ -109,7 +109,7 @@ pub fn tf_message(time_s: f64, pose: Pose2, camera: &CameraConfig) -> Value {
     let (s, c) = (pose.yaw / 2.0).sin_cos();
     json!({"transforms": [
         transform(time_s, "world", "base_link", [pose.x, pose.y, 0.0], [0.0, 0.0, s, c]),
-        transform(time_s, "base_link", "camera", [0.0, 0.0, camera.mount_height_m], OPTICAL_ROTATION),
+        transform(time_s, "base_link", "camera", [0.0, 0.0, camera.mount_height_m.get()], OPTICAL_ROTATION),
     ]})
 }
 

@@ -522,9 +522,9 @@ pub fn render(log: &LogContents, dir: &Path, every_s: f64) -> Result<usize> {
         .identity
         .as_ref()
         .and_then(|id| toml::from_str(&id.config_toml).ok());
-    let (hfov, range) = cfg
-        .as_ref()
-        .map_or((58f64, 5.0), |c| (c.camera.hfov_deg, c.camera.max_range_m));
+    let (hfov, range) = cfg.as_ref().map_or((58f64, 5.0), |c| {
+        (c.camera.hfov_deg, c.camera.max_range_m.get())
+    });
     let draw = |t_ns: u64, with_plan: bool| -> Option<Canvas> {
         let g = latest(&grids, t_ns)?;
         let mut canvas = Canvas::new(g.grid, UNKNOWN);

@@ -11,12 +11,13 @@
 
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
 use super::{Action, Count, Plan, PlanContext, Planner};
+use crate::config::GreedyConfig;
 use crate::Result;
 use std::collections::BTreeMap;
 
 /// The nearest-frontier planner.
-#[derive(Default)]
 pub struct Greedy {
+    cfg: GreedyConfig,
     visits: FrontierVisits,
     /// The frontier being pursued, if any.
     visit: Option<Visit>,
@@ -31,8 +32,15 @@ pub struct Greedy {
 }
 
 impl Greedy {
-    pub fn new() -> Self {
-        Self::default()
+    pub fn new(cfg: &GreedyConfig) -> Self {
+        Greedy {
+            cfg: cfg.clone(),
+            visits: FrontierVisits::default(),
+            visit: None,
+            path_cells: Vec::new(),
+            rerouted: false,
+            distant_views: Count::default(),
+        }
     }
 
     /// Whether frontier cell `i` was given up as unobservable (TENSOR's fallback shares the rule,
@@ -86,8 +94,8 @@ impl Greedy {
                 }
             }
         }
-        let look_on_arrival = ctx.cfg.greedy.look_around_on_arrival;
-        let view_m = ctx.cfg.greedy.view_distance_m;
+        let look_on_arrival = self.cfg.look_around_on_arrival;
+        let view_m = self.cfg.view_distance_m.get();
         let Some((_, goal, k)) = best else {
             // Only frontiers in the blind zone are left: step back to a viewpoint from which the
             // camera sees the floor there.

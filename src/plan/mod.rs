@@ -12,7 +12,7 @@ pub(crate) mod tensor;
 pub mod thp;
 pub mod tsp;
 
-use crate::config::{Config, SearchConfig};
+use crate::config::{Config, MotionConfig, RobotConfig, SearchConfig};
 use crate::field::TensorField;
 use crate::grid::Cell;
 use crate::map::Map;
@@ -21,13 +21,34 @@ use nalgebra::Point2;
 use search::Search;
 use std::collections::BTreeMap;
 
-/// What a planner sees: read-only views of the map and the robot, plus a reusable search workspace.
+/// What a planner sees: read-only views of the map and the robot, the configuration every planner
+/// shares, plus a reusable search workspace.
 pub struct PlanContext<'a> {
     pub map: &'a Map,
     pub pose: Pose2,
     pub time_s: f64,
-    pub cfg: &'a Config,
+    pub cfg: &'a PlanParams,
     pub search: &'a mut Search,
+}
+
+/// The configuration every planner shares, read through [`PlanContext::cfg`]: the shared cost rule
+/// (`search`), the robot's body and speeds, and how the motion executor follows a path (its goal
+/// tolerance). A planner's own section goes to its constructor instead.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanParams {
+    pub search: SearchConfig,
+    pub robot: RobotConfig,
+    pub motion: MotionConfig,
+}
+
+impl From<&Config> for PlanParams {
+    fn from(cfg: &Config) -> PlanParams {
+        PlanParams {
+            search: cfg.search.clone(),
+            robot: cfg.robot.clone(),
+            motion: cfg.motion.clone(),
+        }
+    }
 }
 
 impl PlanContext<'_> {
@@ -413,10 +434,10 @@ impl PlannerKind {
     /// A fresh planner of this kind.
     pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
-            PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new())),
+            PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(&cfg.greedy))),
             PlannerKind::Thp => Ok(Box::new(thp::Thp::new(cfg))),
-            PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(cfg))),
-            PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(cfg))),
+            PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(&cfg.into()))),
+            PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(&cfg.into()))),
         }
     }
 }

@@ -37,7 +37,7 @@
 use super::frontier_visit::{distant_view, follow_to, line_of_sight};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::{Action, Count, Plan, PlanContext, Planner};
-use crate::config::{Config, NbvConfig};
+use crate::config::{CameraConfig, Config, NbvConfig};
 use crate::map::occupancy::{traverse, VoxelState};
 use crate::map::Map;
 use crate::Result;
@@ -55,6 +55,32 @@ const MAX_ATTEMPTS: u32 = 2;
 const RECHECK_STEPS: u32 = 10;
 /// Rays stop contributing once their visibility falls below this.
 const MIN_VISIBILITY: f64 = 1e-3;
+
+/// What NBV-TSP reads of the config: its own section, the camera whose views it predicts, the height
+/// band of the explored volume, the distance GREEDY stops short of a frontier (shared for the look
+/// through a gap before `Complete`), and the run's seed (its random stream).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NbvParams {
+    pub nbv: NbvConfig,
+    pub camera: CameraConfig,
+    /// `map.band_min_m`, `map.band_max_m`.
+    pub band_m: (f64, f64),
+    /// `greedy.view_distance_m`.
+    pub view_distance_m: f64,
+    pub seed: u64,
+}
+
+impl From<&Config> for NbvParams {
+    fn from(cfg: &Config) -> NbvParams {
+        NbvParams {
+            nbv: cfg.nbv.clone(),
+            camera: cfg.camera.clone(),
+            band_m: (cfg.map.band_min_m, cfg.map.band_max_m),
+            view_distance_m: cfg.greedy.view_distance_m.get(),
+            seed: cfg.seed,
+        }
+    }
+}
 
 impl From<&NbvConfig> for GaParams {
     fn from(c: &NbvConfig) -> Self {
@@ -92,7 +118,7 @@ struct Gain {
 }
 
 impl GainModel {
-    fn new(cfg: &Config) -> Self {
+    fn new(cfg: &NbvParams) -> Self {
         let c = &cfg.camera;
         let stride = cfg.nbv.gain_ray_stride;
         let cols = c.width.div_ceil(stride).max(1);
@@ -113,10 +139,10 @@ impl GainModel {
             n_az,
             window,
             rows,
-            mount_m: c.mount_height_m,
-            min_range_m: c.min_range_m,
-            max_range_m: c.max_range_m,
-            band_m: (cfg.map.band_min_m, cfg.map.band_max_m),
+            mount_m: c.mount_height_m.get(),
+            min_range_m: c.min_range_m.get(),
+            max_range_m: c.max_range_m.get(),
+            band_m: cfg.band_m,
             visibility_length_m: cfg.nbv.visibility_length_m,
             cover_min_visibility: cfg.nbv.cover_min_visibility,
         }
@@ -246,6 +272,8 @@ struct Viewpoint {
 pub struct Nbv {
     model: GainModel,
     cfg: NbvConfig,
+    /// GREEDY's `view_distance_m`, for the look through a gap.
+    view_m: f64,
     rng: ChaCha8Rng,
     viewpoints: Vec<Viewpoint>,
     /// The viewpoint being approached (index into `viewpoints`) and its cells on the way.
@@ -285,10 +313,11 @@ struct NbvStats {
 }
 
 impl Nbv {
-    pub fn new(cfg: &Config) -> Self {
+    pub fn new(cfg: &NbvParams) -> Self {
         Nbv {
             model: GainModel::new(cfg),
             cfg: cfg.nbv.clone(),
+            view_m: cfg.view_distance_m,
             // The planner's own stream, derived from the run's seed.
             rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x6e62_7674_7370),
             viewpoints: Vec::new(),
@@ -508,7 +537,7 @@ impl Nbv {
                 .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
                 .collect();
             let done = |i: usize| self.anchor_done[i] || self.given_up[i];
-            let view_m = ctx.cfg.greedy.view_distance_m;
+            let view_m = self.view_m;
             let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
                 return Ok(Action::Complete);
             };
@@ -726,7 +755,7 @@ mod tests {
     fn ray_gain_in_unknown_space_matches_the_closed_form() {
         let cfg = Config::default();
         let map = Map::new(floor_grid(&cfg, 8.0), &cfg);
-        let model = GainModel::new(&cfg);
+        let model = GainModel::new(&NbvParams::from(&cfg));
         let band = map.grid().layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
         let k = model.rows.len() / 2;
         let origin = Point3::new(0.03, 0.07, model.mount_m);
@@ -734,7 +763,7 @@ mod tests {
         let a = 2f64.ln() / cfg.nbv.visibility_length_m;
         // ∫ t² e^(−a t) dt = −e^(−a t) (t²/a + 2t/a² + 2/a³).
         let anti = |t: f64| -(-a * t).exp() * (t * t / a + 2.0 * t / (a * a) + 2.0 / (a * a * a));
-        let (t0, t1) = (cfg.camera.min_range_m, cfg.camera.max_range_m);
+        let (t0, t1) = (cfg.camera.min_range_m.get(), cfg.camera.max_range_m.get());
         let want = 0.5 * (anti(t1) - anti(t0));
         assert!(
             (got - want).abs() <= 0.03 * want,
@@ -749,7 +778,7 @@ mod tests {
         let cfg = Config::default();
         let grid = floor_grid(&cfg, 8.0);
         let map = Map::new(grid, &cfg);
-        let model = GainModel::new(&cfg);
+        let model = GainModel::new(&NbvParams::from(&cfg));
         let g = model.evaluate(&map, Point2::new(0.0, 0.0));
         assert!(g.volume_m3 > cfg.nbv.gain_cutoff_m3, "{}", g.volume_m3);
         // An empty floor scanned all around from the centre: nothing unknown is left nearby.
@@ -794,7 +823,7 @@ mod tests {
         push_box(&mut mesh, [1.5, -4.0, 0.0], [1.6, 4.0, 2.5]);
         let bvh = MeshBvh::new(&mesh).unwrap();
         let map = seen_from(grid, &cfg, &bvh, [Pose2::new(0.0, 0.0, 0.0); 3]);
-        let model = GainModel::new(&cfg);
+        let model = GainModel::new(&NbvParams::from(&cfg));
         let g = model.evaluate(&map, Point2::new(0.0, 0.0));
         let half_fov = 0.5 * cfg.camera.hfov_deg.to_radians();
         assert!(
@@ -807,7 +836,7 @@ mod tests {
         for &c in &cov {
             let p = grid.center(grid.cell(c as usize));
             let d = p.coords.norm();
-            assert!(d <= cfg.camera.max_range_m + grid.res, "{p}");
+            assert!(d <= cfg.camera.max_range_m.get() + grid.res, "{p}");
             if d > 0.3 {
                 assert!(
                     p.y.atan2(p.x).abs() <= half_fov + 0.15,

@@ -91,7 +91,7 @@ pub fn import_bytes(path: &Path, bytes: &[u8], cfg: &SceneConfig) -> Result<Impo
     }
     let solid: Vec<bool> = free.iter().map(|f| !f).collect();
     Ok(ImportedPlan {
-        mesh: extrude_grid(&solid, nx, ny, origin, RASTER_M, cfg.wall_height_m),
+        mesh: extrude_grid(&solid, nx, ny, origin, RASTER_M, cfg.wall_height_m.get()),
         rooms: plan.room_num,
         free_area_m2: free_cells as f64 * RASTER_M * RASTER_M,
     })

@@ -514,7 +514,7 @@ pub fn write_obj(
 
 /// Rejects a scene larger than `scene.max_extent_m` along any axis (usually wrong units).
 pub(crate) fn check_extent(path: &Path, what: &str, extent: f64, cfg: &SceneConfig) -> Result<()> {
-    if extent > cfg.max_extent_m {
+    if extent > cfg.max_extent_m.get() {
         // Scientific notation for absurd values: a coordinate of 1e300 must not print 300 digits.
         let shown = if extent < 1e6 {
             format!("{extent:.1}")
@@ -525,7 +525,7 @@ pub(crate) fn check_extent(path: &Path, what: &str, extent: f64, cfg: &SceneConf
             path,
             format!(
                 "{what} extent {shown} m exceeds scene.max_extent_m = {} m (wrong units?)",
-                cfg.max_extent_m
+                cfg.max_extent_m.get()
             ),
         ));
     }

@@ -496,7 +496,14 @@ fn extrude_map(
         yaml.origin[0] + x0 as f64 * yaml.resolution,
         yaml.origin[1] + y0 as f64 * yaml.resolution,
     ];
-    let mesh = extrude_grid(&solid, nx, ny, origin, yaml.resolution, cfg.wall_height_m);
+    let mesh = extrude_grid(
+        &solid,
+        nx,
+        ny,
+        origin,
+        yaml.resolution,
+        cfg.wall_height_m.get(),
+    );
     Ok((mesh, free_cells))
 }
 

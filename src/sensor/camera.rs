@@ -62,9 +62,9 @@ impl DepthCamera {
         DepthCamera {
             width: w,
             height: h,
-            mount_height: cfg.mount_height_m as f32,
-            min_range: cfg.min_range_m as f32,
-            max_range: cfg.max_range_m as f32,
+            mount_height: cfg.mount_height_m.get() as f32,
+            min_range: cfg.min_range_m.get() as f32,
+            max_range: cfg.max_range_m.get() as f32,
             tan_h: tan_h as f32,
             tan_v: tan_v as f32,
             cam_dirs,

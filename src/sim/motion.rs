@@ -2,7 +2,7 @@
 //! full-turn look-arounds, and a guard that never drives the disc toward a known obstacle.
 
 use super::robot::Command;
-use crate::config::Config;
+use crate::config::{Config, MotionConfig, RobotConfig};
 use crate::map::Map;
 use crate::plan::Action;
 use crate::util::wrap_angle;
@@ -82,20 +82,44 @@ const TIGHT_LOOKAHEAD_M: f64 = 0.15;
 /// so that pure pursuit does not cut the same corner again at once).
 const TIGHT_EXIT_MARGIN_M: f64 = 0.05;
 
+/// What the motion executor reads of the config: its own section, the robot's body and speeds, the
+/// step, and the map's inflation margin (the clearance paths keep, which the guard must allow).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotionParams {
+    pub motion: MotionConfig,
+    pub robot: RobotConfig,
+    /// `sim.dt_s`.
+    pub dt_s: f64,
+    /// `map.inflation_margin_m`.
+    pub inflation_margin_m: f64,
+}
+
+impl From<&Config> for MotionParams {
+    fn from(cfg: &Config) -> MotionParams {
+        MotionParams {
+            motion: cfg.motion.clone(),
+            robot: cfg.robot.clone(),
+            dt_s: cfg.sim.dt_s,
+            inflation_margin_m: cfg.map.inflation_margin_m,
+        }
+    }
+}
+
 impl MotionExecutor {
-    pub fn new(cfg: &Config) -> Self {
+    pub fn new(p: &MotionParams) -> Self {
+        let (robot, motion) = (&p.robot, &p.motion);
         MotionExecutor {
             phase: Phase::Idle,
-            dt: cfg.sim.dt_s,
-            radius: cfg.robot.radius_m,
-            max_speed: cfg.robot.max_speed_mps,
-            max_turn: cfg.robot.max_turn_rate_rps,
-            turn_in_place: cfg.motion.turn_in_place_rad,
-            lookahead: cfg.motion.lookahead_m,
-            goal_tolerance: cfg.motion.goal_tolerance_m,
-            slow_clearance: cfg.motion.slow_clearance_m,
-            free_clearance: cfg.robot.radius_m + cfg.map.inflation_margin_m,
-            guard_clearance: cfg.robot.radius_m + GUARD_MARGIN_M.min(cfg.map.inflation_margin_m),
+            dt: p.dt_s,
+            radius: robot.radius_m,
+            max_speed: robot.max_speed_mps,
+            max_turn: robot.max_turn_rate_rps,
+            turn_in_place: motion.turn_in_place_rad.get(),
+            lookahead: motion.lookahead_m.get(),
+            goal_tolerance: motion.goal_tolerance_m,
+            slow_clearance: motion.slow_clearance_m.get(),
+            free_clearance: robot.radius_m + p.inflation_margin_m,
+            guard_clearance: robot.radius_m + GUARD_MARGIN_M.min(p.inflation_margin_m),
         }
     }
 
@@ -371,7 +395,7 @@ mod tests {
             )
             .expect("the door is wide enough to plan through");
         let path: Vec<Point2<f64>> = path.cells.iter().map(|c| grid.center(*c)).collect();
-        let mut exec = MotionExecutor::new(&cfg);
+        let mut exec = MotionExecutor::new(&MotionParams::from(&cfg));
         exec.start(&Action::Follow {
             path,
             look_on_arrival: false,

@@ -4,14 +4,14 @@ use super::clock::{Stage, StageClock};
 use super::metrics::{
     surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult, Termination,
 };
-use super::motion::{MotionExecutor, MotionStatus};
+use super::motion::{MotionExecutor, MotionParams, MotionStatus};
 use super::observable::{CacheOutcome, ObservableCache, ObservableSet};
 use super::robot::Robot;
 use crate::config::{Config, DepthRenderer, SpawnMode};
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
-use crate::plan::{Action, Plan, PlanContext, Planner, PlannerKind};
+use crate::plan::{Action, Plan, PlanContext, PlanParams, Planner, PlannerKind};
 use crate::scene::{GroundTruth, Scene};
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
@@ -189,6 +189,8 @@ pub struct Simulation<'a> {
     scene: &'a Scene,
     cfg: &'a Config,
     planner: Box<dyn Planner + 'a>,
+    /// What the planner reads of the config ([`PlanContext::cfg`]).
+    plan_params: PlanParams,
     gt: GroundTruth,
     bvh: MeshBvh,
     raster: MeshRaster,
@@ -256,7 +258,7 @@ impl<'a> Simulation<'a> {
         let grid = gt.grid;
         let dt = cfg.sim.dt_s;
         let robot = Robot::new(gt.spawn, &cfg.robot);
-        let mut motion = MotionExecutor::new(cfg);
+        let mut motion = MotionExecutor::new(&MotionParams::from(cfg));
         let action = if cfg.sim.initial_look_around {
             Action::LookAround
         } else {
@@ -270,6 +272,7 @@ impl<'a> Simulation<'a> {
             scene,
             cfg,
             planner,
+            plan_params: PlanParams::from(cfg),
             map: Map::new(grid, cfg),
             camera: DepthCamera::new(&cfg.camera),
             frame: DepthFrame::default(),
@@ -299,10 +302,10 @@ impl<'a> Simulation<'a> {
             // Simulated time of step k is k / steps_per_s (for dt = 0.1 this prints as 270.4, not
             // 270.40000000000003).
             steps_per_s: 1.0 / dt,
-            total_steps: (cfg.sim.budget_s / dt).round() as u64,
-            camera_period: ((1.0 / (cfg.camera.rate_hz * dt)).round() as u64).max(1),
+            total_steps: (cfg.sim.budget_s.get() / dt).round() as u64,
+            camera_period: ((1.0 / (cfg.camera.rate_hz.get() * dt)).round() as u64).max(1),
             curve_period: ((cfg.sim.curve_interval_s / dt).round() as u64).max(1),
-            stuck_steps: (cfg.sim.stuck_timeout_s / dt).round() as u64,
+            stuck_steps: (cfg.sim.stuck_timeout_s.get() / dt).round() as u64,
             collision_top: cfg.robot.height_m.min(cfg.map.band_max_m),
             gt,
             bvh,
@@ -437,7 +440,7 @@ impl<'a> Simulation<'a> {
                     map: &self.map,
                     pose,
                     time_s,
-                    cfg,
+                    cfg: &self.plan_params,
                     search: &mut self.search,
                 };
                 self.planner
@@ -452,7 +455,7 @@ impl<'a> Simulation<'a> {
 
         // Metrics and termination.
         let volume = self.explored.volume_m3();
-        if volume - self.volume_at_last_gain >= cfg.sim.stuck_min_gain_m3 {
+        if volume - self.volume_at_last_gain >= cfg.sim.stuck_min_gain_m3.get() {
             self.volume_at_last_gain = volume;
             self.last_gain_step = self.step;
         }
@@ -467,7 +470,7 @@ impl<'a> Simulation<'a> {
         observer.on_step(&StepView {
             step: self.step,
             time_s: self.time_s(),
-            budget_s: cfg.sim.budget_s,
+            budget_s: cfg.sim.budget_s.get(),
             pose,
             completeness: self.explored.completeness(),
             path_length_m: self.robot.path_length_m,
@@ -500,7 +503,7 @@ impl<'a> Simulation<'a> {
             map: &self.map,
             pose: self.robot.pose,
             time_s,
-            cfg: self.cfg,
+            cfg: &self.plan_params,
             search: &mut self.search,
         };
         if !self.need_plan && self.planner.is_outdated(&ctx, &self.action) {
@@ -589,7 +592,7 @@ impl<'a> Simulation<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::SpawnMode;
+    use crate::config::{NonNegative, Positive, SpawnMode};
     use crate::sensor::raycast::testing::furnished_room;
 
     fn scene(mesh: crate::scene::TriMesh) -> Scene {
@@ -670,8 +673,8 @@ mod tests {
     #[test]
     fn the_budget_ends_the_run_at_its_step() {
         let mut cfg = Config::default();
-        cfg.sim.budget_s = 3.0;
-        cfg.sim.stuck_timeout_s = 1000.0;
+        cfg.sim.budget_s = Positive::new(3.0).unwrap();
+        cfg.sim.stuck_timeout_s = Positive::new(1000.0).unwrap();
         let mut planner = scripted(usize::MAX, false);
         let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);
@@ -731,8 +734,8 @@ mod tests {
     #[test]
     fn no_progress_ends_the_run_stuck_at_the_timeout() {
         let mut cfg = Config::default();
-        cfg.sim.stuck_timeout_s = 2.0;
-        cfg.sim.stuck_min_gain_m3 = 1e9;
+        cfg.sim.stuck_timeout_s = Positive::new(2.0).unwrap();
+        cfg.sim.stuck_min_gain_m3 = NonNegative::new(1e9).unwrap();
         let mut planner = scripted(usize::MAX, false);
         let mut sim = room_sim(&cfg, &mut planner);
         let outcomes = drive(&mut sim, &mut NoObserver);

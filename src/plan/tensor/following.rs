@@ -42,7 +42,7 @@ impl Tensor {
         if let (StopReason::NearDegenerate(k), true) = (reason, line.len() <= 1) {
             if depth < 2 {
                 let n = nodes[k];
-                self.arrived = Some(Arrival {
+                let arrival = Arrival {
                     id: n.id,
                     kind: if n.kind == DegenerateKind::Trisector {
                         self.stats.trisector_dockings += 1;
@@ -50,8 +50,8 @@ impl Tensor {
                     } else {
                         ArrivalKind::Wedge
                     },
-                });
-                return self.plan_at(ctx, depth + 1);
+                };
+                return self.plan_at(ctx, arrival, depth + 1);
             }
         }
         let cut = line
@@ -100,11 +100,11 @@ impl Tensor {
             self.stats.trisector_dockings += 1;
             if path.len() < 2 || path_length(&path) < ctx.cfg.motion.goal_tolerance_m {
                 if depth < 2 {
-                    self.arrived = Some(Arrival {
+                    let arrival = Arrival {
                         id: n.id,
                         kind: ArrivalKind::Dock,
-                    });
-                    return self.plan_at(ctx, depth + 1);
+                    };
+                    return self.plan_at(ctx, arrival, depth + 1);
                 }
             } else {
                 self.advecting = true;
@@ -130,7 +130,7 @@ impl Tensor {
                     }
                     Routed::Go(a) => Ok(a),
                     Routed::Nothing => {
-                        self.in_fallback = true;
+                        self.transition(Event::NoRoute);
                         self.fallback(ctx)
                     }
                 };
@@ -173,36 +173,39 @@ impl Tensor {
         })
     }
 
-    /// Plans after an arrival at a node (or without one), then advects.
-    pub(super) fn plan_at(&mut self, ctx: &mut PlanContext, depth: u32) -> Result<Action> {
-        if let Some(arr) = self.arrived.take() {
-            let pos = self
-                .field
-                .as_ref()
-                .and_then(|f| f.points().iter().find(|n| n.id == arr.id))
-                .map_or(ctx.pose.position(), |n| n.pos());
-            self.ignore = Some((arr.id, pos));
-            let branch = match arr.kind {
-                ArrivalKind::Route { heading: Some(h) } => {
-                    self.heading_override = Some(h);
-                    false
-                }
-                ArrivalKind::Route { heading: None } | ArrivalKind::Dock => true,
-                ArrivalKind::Wedge => {
-                    self.stats.wedge_stops += 1;
-                    // Stop and re-plan; route away when the wedge's branches offer nothing.
-                    !self.node_has_gain(ctx, arr.id)
-                }
-            };
-            if branch {
-                match self.route(ctx, Some(arr.id)) {
-                    Routed::Leave { heading, .. } => self.heading_override = Some(heading),
-                    Routed::Go(a) => return Ok(a),
-                    Routed::Nothing => {
-                        if arr.kind != ArrivalKind::Wedge {
-                            self.in_fallback = true;
-                            return self.fallback(ctx);
-                        }
+    /// Plans after an arrival at a node, then advects.
+    pub(super) fn plan_at(
+        &mut self,
+        ctx: &mut PlanContext,
+        arr: Arrival,
+        depth: u32,
+    ) -> Result<Action> {
+        let pos = self
+            .field
+            .as_ref()
+            .and_then(|f| f.points().iter().find(|n| n.id == arr.id))
+            .map_or(ctx.pose.position(), |n| n.pos());
+        self.ignore = Some((arr.id, pos));
+        let branch = match arr.kind {
+            ArrivalKind::Route { heading: Some(h) } => {
+                self.heading_override = Some(h);
+                false
+            }
+            ArrivalKind::Route { heading: None } | ArrivalKind::Dock => true,
+            ArrivalKind::Wedge => {
+                self.stats.wedge_stops += 1;
+                // Stop and re-plan; route away when the wedge's branches offer nothing.
+                !self.node_has_gain(ctx, arr.id)
+            }
+        };
+        if branch {
+            match self.route(ctx, Some(arr.id)) {
+                Routed::Leave { heading, .. } => self.heading_override = Some(heading),
+                Routed::Go(a) => return Ok(a),
+                Routed::Nothing => {
+                    if arr.kind != ArrivalKind::Wedge {
+                        self.transition(Event::NoRoute);
+                        return self.fallback(ctx);
                     }
                 }
             }

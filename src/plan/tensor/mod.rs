@@ -37,6 +37,36 @@
 //!   least 90 % of its samples are outside every known obstacle's inflation (a contact test of the
 //!   robot's body against the known scene; unknown cells pass, as in the paper).
 //!
+//! **States.** Two enums hold the planner's state, each changed in one place:
+//! - [`Mode`], who drives the robot, changes only in [`Mode::next`] on an [`Event`]:
+//!
+//!   | mode | drives | `NoRoute` | `Stalled` (with `tensor.fallback`) | `LegReached` | `GainAgain`, `Arrived` |
+//!   |---|---|---|---|---|---|
+//!   | `Field` | advection, docking, routing, safety moves | `UntilGain` | `Leg` | — | — |
+//!   | `UntilGain` | GREEDY | — | `LegThenUntilGain` | — | `Field` |
+//!   | `Leg` | GREEDY | `LegThenUntilGain` | — | `Field` | — |
+//!   | `LegThenUntilGain` | GREEDY | — | — | `UntilGain` | `Leg` |
+//!
+//!   `NoRoute`: routing offered no reachable node or no accessible edge with gain (without
+//!   `tensor.fallback` the run then ends `complete` or `stuck`, see [`fallback`]). `Stalled`:
+//!   advection saw nothing new twice in a row, or nothing new was seen in any mode for three stall
+//!   timeouts; without `tensor.fallback` it changes nothing. `LegReached`: a GREEDY action reached
+//!   its goal. `GainAgain`: checked at every planning step in `UntilGain`. `Arrived`: planning at a
+//!   node (never met in `UntilGain` in practice, as every GREEDY mode plans with GREEDY).
+//! - [`Current`], the action in progress and what it is for (`Advect`, `Dock`, `Route`, `Escape`,
+//!   `Look`, `Fallback`), set where the action is chosen. When the action ends (`action_finished`,
+//!   one `match`) it becomes what its end asks the next planning step to do first: `Arrived` at a
+//!   node (a wedge reached, a trisector docked, a routed node reached), `Recover` (`Look`, then
+//!   `StepClear`, when the executor refused to move at all), or `None`.
+//!
+//! A planning step ([`Tensor::next_action`]) takes, in this order: the `Recover` or `Arrived` that
+//! `Current` holds; the long stall watchdog; the mode (a GREEDY mode plans with GREEDY; `UntilGain`
+//! first checks the graph); the advection stall watchdog (routing from the nearest node); the wall
+//! escape; advection. Beside the two enums the planner keeps memory, not modes: the node just
+//! handled (`ignore`), a heading for the next pathline (`heading_override`), the watchdogs' clocks,
+//! the refusal count, and `outdated`, which `is_outdated` hands to the `action_finished` call that
+//! follows it.
+//!
 //! The parts: [`following`] (advection, wedge stops, docking, planning after an arrival),
 //! [`routing`] (information gain, the routing graph, Prim's tree, the target edge), [`safety`] (wall
 //! escape, stepping clear) and [`fallback`] (the termination rule, or the GREEDY hand-over); this
@@ -68,7 +98,7 @@
 
 use super::greedy::Greedy;
 use super::{path_length, Action, FieldPlanner, Plan, PlanContext, Planner};
-use crate::config::{Config, FieldConfig, TensorConfig};
+use crate::config::{Config, FieldConfig, GreedyConfig, TensorConfig};
 use crate::field::advect::{trace, StopConditions, StopReason};
 use crate::field::{
     biharmonic_window, DegenerateKind, FieldGrid, SpaceTimeParams, TensorField, TimeVaryingField,
@@ -131,10 +161,25 @@ struct Arrival {
     kind: ArrivalKind,
 }
 
-/// The action in progress and what it is for.
+/// A move out of a spot where the executor's guard refused to move at all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Recovery {
+    /// Look around (which shows the never-seen cells the guard counts as hazards).
+    Look,
+    /// Step straight away from the nearest hazard.
+    StepClear,
+}
+
+/// The action in progress and what it is for; once an action has ended, what its end asks the next
+/// planning step to do first (`Arrived`, `Recover`), else `None`.
 #[derive(Clone, Debug, PartialEq)]
 enum Current {
     None,
+    /// At a node: plan there next (set when an action ends there, or for a look in the node's own
+    /// cell, which the arrival outlives).
+    Arrived(Arrival),
+    /// The executor refused to move: this recovery next.
+    Recover(Recovery),
     Advect {
         started_s: f64,
         cells: Vec<usize>,
@@ -154,6 +199,56 @@ enum Current {
     Escape,
     Look,
     Fallback,
+}
+
+/// Who drives the robot; see the module doc's states. It changes only in [`Mode::next`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// The field drives: advection, docking, routing over the topology graph, safety moves.
+    Field,
+    /// GREEDY drives until the routing graph offers an accessible edge with gain again.
+    UntilGain,
+    /// GREEDY drives until one of its legs reaches its goal; then the field again.
+    Leg,
+    /// GREEDY drives until one of its legs reaches its goal; then until the graph offers gain.
+    LegThenUntilGain,
+}
+
+/// What changes the [`Mode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Event {
+    /// Routing offered nothing: no reachable node, or no accessible edge with gain.
+    NoRoute,
+    /// Nothing new seen for long: advection stalled twice in a row, or nothing new in any mode for
+    /// three stall timeouts.
+    Stalled,
+    /// A GREEDY leg reached its goal.
+    LegReached,
+    /// The routing graph offers an accessible edge with gain again.
+    GainAgain,
+    /// The robot arrived at a node (and plans there).
+    Arrived,
+}
+
+impl Mode {
+    /// The transition table. `hand_over` is `tensor.fallback`: without it a stall starts no GREEDY
+    /// leg (and `NoRoute` ends the run in [`Tensor::fallback`], whatever the mode).
+    fn next(self, event: Event, hand_over: bool) -> Mode {
+        use Mode::*;
+        match (event, self) {
+            (Event::NoRoute, Field | UntilGain) => UntilGain,
+            (Event::NoRoute, Leg | LegThenUntilGain) => LegThenUntilGain,
+            (Event::Stalled, m) if !hand_over => m,
+            (Event::Stalled, Field | Leg) => Leg,
+            (Event::Stalled, UntilGain | LegThenUntilGain) => LegThenUntilGain,
+            (Event::LegReached, Leg) => Field,
+            (Event::LegReached, LegThenUntilGain) => UntilGain,
+            (Event::LegReached, m @ (Field | UntilGain)) => m,
+            (Event::GainAgain | Event::Arrived, UntilGain) => Field,
+            (Event::GainAgain | Event::Arrived, LegThenUntilGain) => Leg,
+            (Event::GainAgain | Event::Arrived, m @ (Field | Leg)) => m,
+        }
+    }
 }
 
 /// A degenerate point usable now: on a traversable cell.
@@ -207,16 +302,12 @@ pub struct Tensor {
     window: Option<TimeVaryingField>,
     window_center: Point2<f64>,
     greedy: Greedy,
+    mode: Mode,
     current: Current,
-    arrived: Option<Arrival>,
     /// Heading for the next pathline instead of the robot's (a chosen branch).
     heading_override: Option<f64>,
     /// A node just handled: ignored by docking and pathline stops until the robot has left it.
     ignore: Option<(u64, Point2<f64>)>,
-    /// The graph offered nothing: GREEDY drives until it does again.
-    in_fallback: bool,
-    /// Advection stalled twice: GREEDY drives until one of its legs reaches its goal.
-    fallback_leg: bool,
     known_cells: usize,
     last_progress_s: f64,
     /// Last time anything new was seen, in any mode.
@@ -229,21 +320,41 @@ pub struct Tensor {
     max_speed: f64,
     /// The last action was an advection step (the stall watchdog runs while this holds).
     advecting: bool,
-    /// `is_outdated` ended the last action (as opposed to the executor reporting it blocked).
+    /// `is_outdated` ended the last action (as opposed to the executor reporting it blocked): what
+    /// `is_outdated` tells the `action_finished` call that follows it.
     outdated: bool,
     /// Where the last action started.
     action_start: Point2<f64>,
-    /// The executor refused to move: look around before planning again.
-    look_next: bool,
-    /// Refused again after looking: step onto the clearest cell nearby.
-    clear_next: bool,
     /// Where the executor refused to move, and how often in a row.
     refusal: Option<(Point2<f64>, u32)>,
     stats: Stats,
 }
 
+/// What TENSOR reads of the config: its own section, the field, GREEDY's section (the hand-over),
+/// and the robot's top speed (advection's pathlines run at full speed between field updates, which
+/// see no [`PlanContext`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TensorParams {
+    pub tensor: TensorConfig,
+    pub field: FieldConfig,
+    pub greedy: GreedyConfig,
+    /// `robot.max_speed_mps`.
+    pub max_speed_mps: f64,
+}
+
+impl From<&Config> for TensorParams {
+    fn from(cfg: &Config) -> TensorParams {
+        TensorParams {
+            tensor: cfg.tensor.clone(),
+            field: cfg.field.clone(),
+            greedy: cfg.greedy.clone(),
+            max_speed_mps: cfg.robot.max_speed_mps,
+        }
+    }
+}
+
 impl Tensor {
-    pub fn new(cfg: &Config) -> Self {
+    pub fn new(cfg: &TensorParams) -> Self {
         let mut field_cfg = cfg.field.clone();
         if cfg.tensor.topological_control {
             field_cfg.cancel_pairs = true;
@@ -259,13 +370,11 @@ impl Tensor {
             next_key_s: 0.0,
             window: None,
             window_center: Point2::origin(),
-            greedy: Greedy::new(),
+            greedy: Greedy::new(&cfg.greedy),
+            mode: Mode::Field,
             current: Current::None,
-            arrived: None,
             heading_override: None,
             ignore: None,
-            in_fallback: false,
-            fallback_leg: false,
             known_cells: 0,
             last_progress_s: 0.0,
             last_any_progress_s: 0.0,
@@ -274,12 +383,10 @@ impl Tensor {
             last_escape_s: f64::NEG_INFINITY,
             node_failures: BTreeMap::new(),
             route_target: None,
-            max_speed: cfg.robot.max_speed_mps,
+            max_speed: cfg.max_speed_mps,
             advecting: false,
             outdated: false,
             action_start: Point2::origin(),
-            look_next: false,
-            clear_next: false,
             refusal: None,
             stats: Stats::default(),
         }
@@ -393,44 +500,56 @@ fn path_cells(grid: &GridSpec, path: &[Point2<f64>]) -> Vec<usize> {
 }
 
 impl Tensor {
-    /// The next action (see [`Planner::plan`]).
+    /// Changes the mode on `event` (see [`Mode::next`]).
+    fn transition(&mut self, event: Event) {
+        self.mode = self.mode.next(event, self.cfg.fallback);
+    }
+
+    /// The next action (see [`Planner::plan`]): what the last action's end asked for, then the
+    /// watchdogs, then the mode's own step.
     fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.action_start = ctx.pose.position();
         if self.field.is_none() {
             return Ok(Action::LookAround);
         }
-        if std::mem::take(&mut self.look_next) {
-            self.looks_at.push(ctx.pose.position());
-            self.stats.looks += 1;
-            self.current = Current::Look;
-            return Ok(Action::LookAround);
-        }
-        if std::mem::take(&mut self.clear_next) {
-            if let Some(a) = self.step_clear(ctx) {
-                return Ok(a);
+        let mut arrival = None;
+        match self.current {
+            Current::Recover(Recovery::Look) => {
+                self.looks_at.push(ctx.pose.position());
+                self.stats.looks += 1;
+                self.current = Current::Look;
+                return Ok(Action::LookAround);
             }
+            Current::Recover(Recovery::StepClear) => {
+                self.current = Current::None;
+                if let Some(a) = self.step_clear(ctx) {
+                    return Ok(a);
+                }
+            }
+            Current::Arrived(a) => {
+                self.current = Current::None;
+                arrival = Some(a);
+            }
+            _ => {}
         }
         self.note_progress(ctx);
-        if self.arrived.is_some() {
-            self.in_fallback = false;
-            return self.plan_at(ctx, 0);
+        if let Some(arrival) = arrival {
+            self.transition(Event::Arrived);
+            return self.plan_at(ctx, arrival, 0);
         }
         if ctx.time_s - self.last_any_progress_s >= 3.0 * self.cfg.stall_timeout_s {
             // Nothing new for long whatever the mode (routes that lead nowhere reset the advection
             // watchdog): one GREEDY leg, if the hand-over is on.
             self.stats.stalls += 1;
             self.last_any_progress_s = ctx.time_s;
-            self.fallback_leg = self.cfg.fallback;
+            self.transition(Event::Stalled);
         }
-        if self.fallback_leg {
-            return self.fallback(ctx);
-        }
-        if self.in_fallback {
-            if self.graph_has_gain(ctx) {
-                self.in_fallback = false;
-            } else {
-                return self.fallback(ctx);
-            }
+        let mode = self.mode;
+        match mode {
+            Mode::Leg | Mode::LegThenUntilGain => return self.fallback(ctx),
+            Mode::UntilGain if self.graph_has_gain(ctx) => self.transition(Event::GainAgain),
+            Mode::UntilGain => return self.fallback(ctx),
+            Mode::Field => {}
         }
         if ctx.time_s - self.last_progress_s >= self.cfg.stall_timeout_s {
             self.stats.stalls += 1;
@@ -440,7 +559,7 @@ impl Tensor {
                 // Twice nothing new: one full GREEDY leg, to its frontier, before advecting again (if
                 // the hand-over is on).
                 self.stalls_in_a_row = 0;
-                self.fallback_leg = self.cfg.fallback;
+                self.transition(Event::Stalled);
             }
             match self.route(ctx, None) {
                 Routed::Leave { heading, node_id } => {
@@ -449,7 +568,7 @@ impl Tensor {
                 }
                 Routed::Go(a) => return Ok(a),
                 Routed::Nothing => {
-                    self.in_fallback = true;
+                    self.transition(Event::NoRoute);
                     return self.fallback(ctx);
                 }
             }
@@ -487,7 +606,11 @@ impl Planner for Tensor {
             } => ctx.time_s - started_s >= self.substep_s() - 1e-9 || blocked(cells),
             Current::Dock { cells, .. } | Current::Route { cells, .. } => blocked(cells),
             Current::Fallback => self.greedy.is_outdated(ctx, action),
-            Current::None | Current::Escape | Current::Look => false,
+            Current::None
+            | Current::Arrived(_)
+            | Current::Recover(_)
+            | Current::Escape
+            | Current::Look => false,
         };
         self.outdated
     }
@@ -511,13 +634,16 @@ impl Planner for Tensor {
             // fallback's give-up rule) every other time, so one pinned spot cannot give up every
             // frontier in a row.
             if n == 1 || n.is_multiple_of(2) {
-                self.look_next = n == 1;
-                self.clear_next = n != 1;
-                self.current = Current::None;
+                self.current = Current::Recover(if n == 1 {
+                    Recovery::Look
+                } else {
+                    Recovery::StepClear
+                });
                 return;
             }
         }
-        match std::mem::replace(&mut self.current, Current::None) {
+        let arrived = |id, kind| Current::Arrived(Arrival { id, kind });
+        self.current = match std::mem::replace(&mut self.current, Current::None) {
             Current::Advect {
                 wedge: Some((id, pos)),
                 ..
@@ -526,41 +652,34 @@ impl Planner for Tensor {
                 self.field_cfg.arrive_radius_m + ctx.cfg.motion.goal_tolerance_m,
             ) =>
             {
-                self.arrived = Some(Arrival {
-                    id,
-                    kind: ArrivalKind::Wedge,
-                });
+                arrived(id, ArrivalKind::Wedge)
             }
-            Current::Dock { id, pos, .. } => {
-                if reached || near(pos, self.cfg.dock_radius_m) {
-                    self.arrived = Some(Arrival {
-                        id,
-                        kind: ArrivalKind::Dock,
-                    });
-                } else {
-                    *self.node_failures.entry(id).or_default() += 1;
-                }
+            Current::Dock { id, pos, .. } if reached || near(pos, self.cfg.dock_radius_m) => {
+                arrived(id, ArrivalKind::Dock)
             }
             Current::Route {
                 id, pos, heading, ..
-            } => {
-                if reached || near(pos, self.cfg.dock_radius_m) {
-                    self.arrived = Some(Arrival {
-                        id,
-                        kind: ArrivalKind::Route { heading },
-                    });
-                } else {
-                    *self.node_failures.entry(id).or_default() += 1;
-                }
+            } if reached || near(pos, self.cfg.dock_radius_m) => {
+                arrived(id, ArrivalKind::Route { heading })
+            }
+            Current::Dock { id, .. } | Current::Route { id, .. } => {
+                *self.node_failures.entry(id).or_default() += 1;
+                Current::None
             }
             Current::Fallback => {
                 if reached {
-                    self.fallback_leg = false;
+                    self.transition(Event::LegReached);
                 }
-                self.greedy.action_finished(ctx, reached)
+                self.greedy.action_finished(ctx, reached);
+                Current::None
             }
-            _ => {}
-        }
+            // What the end of an earlier action asked for still stands (a look in a node's own
+            // cell keeps its arrival).
+            pending @ (Current::Arrived(_) | Current::Recover(_)) => pending,
+            Current::None | Current::Advect { .. } | Current::Escape | Current::Look => {
+                Current::None
+            }
+        };
     }
 
     fn field_planner(&mut self) -> Option<&mut dyn FieldPlanner> {
@@ -590,7 +709,10 @@ impl FieldPlanner for Tensor {
             self.window = None;
         }
         // The window matters only to advection, which re-traces every sub-step.
-        if matches!(self.current, Current::Advect { .. } | Current::None) {
+        if matches!(
+            self.current,
+            Current::Advect { .. } | Current::None | Current::Arrived(_) | Current::Recover(_)
+        ) {
             self.refresh_window(pose, self.max_speed);
         }
         Ok(())
@@ -812,7 +934,7 @@ mod tests {
             Point2::origin(),
         );
         let cfg = Config::default();
-        let mut planner = Tensor::new(&cfg);
+        let mut planner = Tensor::new(&TensorParams::from(&cfg));
         let mut field = TensorField::new(layout.grid, &planner.field_cfg);
         let inputs = MaskInputs::new(&layout.grid, &layout.surface, &layout.surface, None).unwrap();
         field.update(&inputs).unwrap();
@@ -829,11 +951,47 @@ mod tests {
         }
     }
 
+    /// The mode table: a stall during `UntilGain` queues one GREEDY leg, after which GREEDY goes
+    /// on until the graph has gain; without the hand-over stalls change nothing; every mode is
+    /// left again by the events that end it.
+    #[test]
+    fn mode_transitions() {
+        use Event::*;
+        let run = |events: &[Event], hand_over: bool| {
+            events
+                .iter()
+                .fold(Mode::Field, |m, &e| m.next(e, hand_over))
+        };
+        assert_eq!(run(&[NoRoute], true), Mode::UntilGain);
+        assert_eq!(run(&[NoRoute, Stalled], true), Mode::LegThenUntilGain);
+        assert_eq!(run(&[NoRoute, Stalled, LegReached], true), Mode::UntilGain);
+        assert_eq!(
+            run(&[NoRoute, Stalled, LegReached, GainAgain], true),
+            Mode::Field
+        );
+        assert_eq!(run(&[Stalled, NoRoute, Arrived], true), Mode::Leg);
+        assert_eq!(run(&[Stalled, Stalled, LegReached], true), Mode::Field);
+        assert_eq!(run(&[Stalled], false), Mode::Field);
+        assert_eq!(run(&[NoRoute, Stalled], false), Mode::UntilGain);
+        for m in [
+            Mode::Field,
+            Mode::UntilGain,
+            Mode::Leg,
+            Mode::LegThenUntilGain,
+        ] {
+            // From every mode: a leg ends on reaching its goal and gain ends `UntilGain`.
+            assert!(!matches!(
+                m.next(LegReached, true).next(GainAgain, true),
+                Mode::Leg | Mode::LegThenUntilGain | Mode::UntilGain
+            ));
+        }
+    }
+
     /// Between key frames the field moves from the middle frame toward the new key frame.
     #[test]
     fn field_time_runs_from_the_middle_frame_to_the_key_frame() {
         let cfg = Config::default();
-        let mut planner = Tensor::new(&cfg);
+        let mut planner = Tensor::new(&TensorParams::from(&cfg));
         planner.key_time_s = 8.0;
         assert!((planner.tau(8.0) - 0.5).abs() < 1e-12);
         assert!((planner.tau(10.0) - 0.75).abs() < 1e-12);

@@ -418,9 +418,8 @@ impl Tensor {
             cells: path.cells.iter().skip(1).map(|c| grid.index(*c)).collect(),
         };
         if pts.len() < 2 {
-            // Already in the node's cell: arrive at once.
-            self.current = Current::None;
-            self.arrived = Some(Arrival {
+            // Already in the node's cell: arrive at once (after a look).
+            self.current = Current::Arrived(Arrival {
                 id: node.id,
                 kind: ArrivalKind::Route { heading },
             });
