@@ -1,5 +1,6 @@
 //! The observable set of a scene (`sim::observable`): the ground truth's ray sampling over the
-//! reachable region, for a small and the largest shipped scene, without the disk cache.
+//! reachable region, for a small and the largest shipped scene and a real plan whose views through
+//! narrow gaps are sampled again finer, without the disk cache.
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
 use std::time::Duration;
@@ -13,7 +14,11 @@ fn observable(c: &mut Criterion) {
     let mut g = c.benchmark_group("observable_set");
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(30));
-    for name in ["apartment_small", "office_large"] {
+    for name in [
+        "apartment_small",
+        "office_large",
+        "floorplans/plan_7fdb16a896",
+    ] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.obj"));
         let scene = scene::load(&path, &cfg.scene).unwrap();
         let gt = GroundTruth::build(&scene.mesh, scene.spawn, &cfg).unwrap();

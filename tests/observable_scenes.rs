@@ -18,10 +18,14 @@ fn scene_path(rel: &str) -> std::path::PathBuf {
         .join(rel)
 }
 
-const PLANS: [&str; 3] = [
+/// The last two are where GREEDY's views through gaps too narrow to pass fell outside the set before
+/// the sampling was refined around such views (2.23 % and 1.09 %).
+const PLANS: [&str; 5] = [
     "floorplans/plan_84f878cff1.obj",
     "floorplans/plan_88d1cfc9f3.obj",
     "floorplans/plan_807c123f55.obj",
+    "floorplans/plan_7fdb16a896.obj",
+    "floorplans/plan_f86b9b439a.obj",
 ];
 
 #[test]

@@ -14,6 +14,17 @@
 //! is inside the height band, so it is cast and traversed up to where it leaves the band; that gives
 //! the same band voxels as a full-length ray (a ray leaves a horizontal slab once).
 //!
+//! **Finer where the view depends on the position.** What the camera sees through a gap too narrow
+//! to pass (a narrow door, a slot beside furniture, an opening onto the outside) changes sharply with
+//! the position: the gap is an aperture, and a planner that looks through it from a pose between two
+//! lattice points sees a wedge neither of them does. So the sampling runs twice. The first pass uses
+//! the lattice above and notes every position whose view holds at least [`REFINE_BEYOND_M3`] of band
+//! voxels over *beyond* cells (free floor farther than the inflation radius plus two cells from every
+//! reachable cell: space behind such gaps, see [`beyond_cells`]). The second pass samples the 3 × 3
+//! squares around each of those positions again on a lattice of half the side (rounded down to whole
+//! cells: 0.2 m at the defaults), with the same rule of one position per patch. The set is the union
+//! of both passes. Scenes whose rooms are all drivable have no such views and cost no more.
+//!
 //! **Walking the rays.** The reference is one ray at a time (`VoxelCaster::observe`): a voxel walk
 //! that tests the triangles of each occupied voxel it enters. The set is computed faster, with the
 //! same result, by sweeping each pixel column's rays together through the floor cells they share
@@ -78,7 +89,9 @@ impl ObservableSet {
     ) -> ObservableSet {
         let grid = gt.grid;
         let band = gt.band_layers();
-        let positions = sample_positions(&grid, gt.reachable_mask(), p.spacing_m);
+        let reach = gt.reachable_mask();
+        let k = lattice_cells(&grid, p.spacing_m);
+        let coarse = sample_positions(&grid, reach, k, |_, _| true);
         // The band as a z interval: a ray is cast and walked only while inside it.
         let (z_lo, z_hi) = (band.start as f64 * grid.res, band.end as f64 * grid.res);
         let yaws: Vec<(f32, f32)> = (0..p.yaws)
@@ -88,12 +101,23 @@ impl ObservableSet {
             })
             .collect();
         let caster = VoxelCaster::new(gt, bvh, camera, (z_lo, z_hi));
-        let bits = if caster.sweep_applies(camera) {
-            caster.frames_by_columns(&positions, &yaws, camera).0
-        } else {
-            caster.frames_by_rays(&positions, &yaws, camera)
+        let beyond = beyond_cells(gt);
+        let sweep = caster.sweep_applies(camera);
+        let frames = |positions: &[usize]| {
+            if sweep {
+                caster.frames_by_columns(positions, &yaws, camera, &beyond)
+            } else {
+                caster.frames_by_rays(positions, &yaws, camera, &beyond)
+            }
         };
-        ObservableSet::from_bits(gt, bits, positions.len())
+        let first = frames(&coarse);
+        let fine = refined_positions(&grid, reach, k, &first.looked_beyond, &coarse);
+        let mut bits = first.bits;
+        if !fine.is_empty() {
+            let second = frames(&fine);
+            bits.iter_mut().zip(&second.bits).for_each(|(a, b)| *a |= b);
+        }
+        ObservableSet::from_bits(gt, bits, coarse.len() + fine.len())
     }
 
     /// Completes a set from its bits: keeps band voxels only, counts them, lists the surface.
@@ -167,6 +191,9 @@ struct VoxelCaster<'a> {
     band: (f64, f64),
     /// The camera's nearest and farthest depth, metres.
     range: (f32, f32),
+    /// The band's layers, and the same one bit each (all bits when the grid has over 64 layers).
+    band_layers: std::ops::Range<usize>,
+    band_mask: u64,
 }
 
 /// [`VoxelTriangles`] indexed densely by voxel, for the caster's hot loop.
@@ -222,12 +249,20 @@ impl<'a> VoxelCaster<'a> {
         camera: &DepthCamera,
         band: (f64, f64),
     ) -> VoxelCaster<'a> {
+        let band_layers = gt.band_layers();
+        let band_mask = if gt.grid.nz > 64 {
+            u64::MAX
+        } else {
+            band_layers.clone().fold(0u64, |m, l| m | 1 << l)
+        };
         VoxelCaster {
             grid: &gt.grid,
             tris: TriangleIndex::new(gt, gt.voxel_triangles()),
             bvh,
             band,
             range: camera.range_limits(),
+            band_layers,
+            band_mask,
         }
     }
 
@@ -352,6 +387,8 @@ struct SweepScratch {
     path: Vec<PathCell>,
     marks: Vec<(usize, u64)>,
     buf: Vec<usize>,
+    /// The marks of the current position in cells beyond the reachable region.
+    beyond: Vec<(usize, u64)>,
 }
 
 /// A pixel column's walk found a case it does not decide exactly: walk its rays one by one.
@@ -382,56 +419,86 @@ impl VoxelCaster<'_> {
         positions: &[usize],
         yaws: &[(f32, f32)],
         camera: &DepthCamera,
-    ) -> Vec<u64> {
+        beyond: &[bool],
+    ) -> Frames {
         let grid = self.grid;
         let words = grid.voxels().div_ceil(64);
-        positions
+        let min_beyond = min_beyond_voxels(grid);
+        let band = self.band_layers.clone();
+        let (bits, looked_beyond) = positions
             .par_iter()
             .fold(
-                || (vec![0u64; words], Vec::new()),
-                |(mut bits, mut buf), &cell| {
+                || (vec![0u64; words], Vec::new(), Vec::new(), Vec::new()),
+                |(mut bits, mut looked, mut buf, mut seen_beyond), &cell| {
                     let c = grid.center(grid.cell(cell));
                     let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
+                    seen_beyond.clear();
                     for &(sin, cos) in yaws {
                         for d in camera.camera_dirs() {
-                            for v in self.observe(origin, world_ray(sin, cos, d), &mut buf) {
+                            for &v in self.observe(origin, world_ray(sin, cos, d), &mut buf) {
                                 bits[v >> 6] |= 1 << (v & 63);
+                                let (c, iz) = grid.voxel_parts(v);
+                                if beyond[c] && band.contains(&iz) {
+                                    seen_beyond.push(v);
+                                }
                             }
                         }
                     }
-                    (bits, buf)
+                    seen_beyond.sort_unstable();
+                    seen_beyond.dedup();
+                    if seen_beyond.len() >= min_beyond {
+                        looked.push(cell);
+                    }
+                    (bits, looked, buf, seen_beyond)
                 },
             )
-            .map(|(bits, _)| bits)
+            .map(|(bits, looked, _, _)| (bits, looked))
             .reduce(
-                || vec![0u64; words],
-                |mut a, b| {
+                || (vec![0u64; words], Vec::new()),
+                |(mut a, mut la), (b, lb)| {
                     a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
-                    a
+                    la.extend(lb);
+                    (a, la)
                 },
-            )
+            );
+        let mut looked_beyond = looked_beyond;
+        looked_beyond.sort_unstable();
+        Frames {
+            bits,
+            looked_beyond,
+            by_rays: 0,
+        }
     }
 
     /// The observable bits by sweeping pixel columns ([`VoxelCaster::sweep_column`]); a column the
     /// sweep cannot decide exactly is walked ray by ray. Per worker, a mask of layers per floor cell.
-    /// Also returns the number of columns walked ray by ray.
     fn frames_by_columns(
         &self,
         positions: &[usize],
         yaws: &[(f32, f32)],
         camera: &DepthCamera,
-    ) -> (Vec<u64>, usize) {
+        beyond: &[bool],
+    ) -> Frames {
         let grid = self.grid;
         let cells = grid.cells();
+        let min_beyond = min_beyond_voxels(grid);
         let (w, h) = camera.image_size();
         let dirs = camera.camera_dirs();
-        let seen = positions
+        let (seen, looked_beyond, by_rays) = positions
             .par_iter()
             .fold(
-                || (vec![0u64; cells], SweepScratch::default(), 0usize),
-                |(mut seen, mut sc, mut by_rays), &cell| {
+                || {
+                    (
+                        vec![0u64; cells],
+                        Vec::new(),
+                        SweepScratch::default(),
+                        0usize,
+                    )
+                },
+                |(mut seen, mut looked, mut sc, mut by_rays), &cell| {
                     let c = grid.center(grid.cell(cell));
                     let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
+                    sc.beyond.clear();
                     for &(sin, cos) in yaws {
                         for u in 0..w {
                             let column = (0..h).map(|k| world_ray(sin, cos, &dirs[k * w + u]));
@@ -448,6 +515,9 @@ impl VoxelCaster<'_> {
                             if swept.is_ok() {
                                 for &(c, m) in &sc.marks {
                                     seen[c] |= m;
+                                    if beyond[c] {
+                                        sc.beyond.push((c, m));
+                                    }
                                 }
                             } else {
                                 by_rays += 1;
@@ -456,23 +526,29 @@ impl VoxelCaster<'_> {
                                     for &v in self.observe(origin, dir, &mut sc.buf) {
                                         let (c, iz) = grid.voxel_parts(v);
                                         seen[c] |= 1 << iz;
+                                        if beyond[c] {
+                                            sc.beyond.push((c, 1 << iz));
+                                        }
                                     }
                                 }
                             }
                         }
                     }
-                    (seen, sc, by_rays)
+                    if beyond_voxels(&mut sc.beyond, self.band_mask) >= min_beyond {
+                        looked.push(cell);
+                    }
+                    (seen, looked, sc, by_rays)
                 },
             )
-            .map(|(seen, _, by_rays)| (seen, by_rays))
+            .map(|(seen, looked, _, by_rays)| (seen, looked, by_rays))
             .reduce(
-                || (vec![0u64; cells], 0),
-                |(mut a, na), (b, nb)| {
+                || (vec![0u64; cells], Vec::new(), 0),
+                |(mut a, mut la, na), (b, lb, nb)| {
                     a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
-                    (a, na + nb)
+                    la.extend(lb);
+                    (a, la, na + nb)
                 },
             );
-        let (seen, by_rays) = seen;
         let mut bits = vec![0u64; grid.voxels().div_ceil(64)];
         for (c, &m) in seen.iter().enumerate() {
             let mut m = m;
@@ -482,7 +558,13 @@ impl VoxelCaster<'_> {
                 bits[v >> 6] |= 1 << (v & 63);
             }
         }
-        (bits, by_rays)
+        let mut looked_beyond = looked_beyond;
+        looked_beyond.sort_unstable();
+        Frames {
+            bits,
+            looked_beyond,
+            by_rays,
+        }
     }
 
     /// A ray's walk limits, as [`VoxelCaster::observe`] and the voxel walk's clip to the grid's
@@ -890,14 +972,23 @@ impl VoxelCaster<'_> {
     }
 }
 
-/// One sample cell per 8-connected patch of reachable cells in each `spacing_m` square: the patch
-/// cell nearest the patch centroid (ties: lowest index). Ascending.
-fn sample_positions(grid: &GridSpec, reachable: &[bool], spacing_m: f64) -> Vec<usize> {
-    let k = ((spacing_m / grid.res).round() as usize).max(1);
+/// One sample cell per 8-connected patch of reachable cells in each square of `k` × `k` cells whose
+/// first cell `(bx, by)` passes `want`: the patch cell nearest the patch centroid (ties: lowest
+/// index). Ascending.
+fn sample_positions(
+    grid: &GridSpec,
+    reachable: &[bool],
+    k: usize,
+    want: impl Fn(usize, usize) -> bool,
+) -> Vec<usize> {
+    let k = k.max(1);
     let mut out = Vec::new();
     let mut label = vec![false; grid.cells()];
     for by in (0..grid.ny).step_by(k) {
         for bx in (0..grid.nx).step_by(k) {
+            if !want(bx, by) {
+                continue;
+            }
             let (x1, y1) = ((bx + k).min(grid.nx), (by + k).min(grid.ny));
             let inside = |c: Cell| {
                 (bx as i32..x1 as i32).contains(&c.x) && (by as i32..y1 as i32).contains(&c.y)
@@ -948,6 +1039,115 @@ fn sample_positions(grid: &GridSpec, reachable: &[bool], spacing_m: f64) -> Vec<
     out
 }
 
+/// The side of the sampling squares in cells, for a spacing in metres.
+fn lattice_cells(grid: &GridSpec, spacing_m: f64) -> usize {
+    ((spacing_m / grid.res).round() as usize).max(1)
+}
+
+/// What one pass of the sampling gives: the observed bits, the sample positions (ascending) that
+/// looked into space beyond the reachable region (see [`beyond_cells`]), and the pixel columns walked
+/// ray by ray.
+struct Frames {
+    bits: Vec<u64>,
+    looked_beyond: Vec<usize>,
+    #[cfg_attr(not(test), allow(dead_code))]
+    by_rays: usize,
+}
+
+/// How much of the space beyond the reachable region (see [`beyond_cells`]) one sample position
+/// must see, m³, for the squares around it to be sampled again on the finer lattice. A view through
+/// a narrow door into a room holds several m³; the views through the open outer doors of
+/// `office_large` onto the thin strip of grid outside the building hold under 0.2 m³, and refining
+/// those would triple that scene's cost for nothing (what GREEDY explores there is already inside
+/// the set).
+const REFINE_BEYOND_M3: f64 = 0.2;
+
+/// Floor cells that are free (no obstacle column) and lie beyond the reachable region: farther than
+/// the inflation radius plus two cells from every reachable cell. The free cells between the
+/// reachable region and the walls around it are within that distance; what is left is space behind
+/// gaps too narrow to pass (a room behind a narrow door, a slot beside furniture, the outside seen
+/// through a door), which the camera sees only through the gap, so from a narrow set of positions.
+fn beyond_cells(gt: &GroundTruth) -> Vec<bool> {
+    let grid = gt.grid;
+    let reach = gt.reachable_mask();
+    let r = gt.inflation_m() / grid.res + 2.0;
+    let ri = r.ceil() as i32;
+    let disc: Vec<(i32, i32)> = (-ri..=ri)
+        .flat_map(|dy| (-ri..=ri).map(move |dx| (dx, dy)))
+        .filter(|&(dx, dy)| ((dx * dx + dy * dy) as f64) <= r * r)
+        .collect();
+    (0..grid.cells())
+        .into_par_iter()
+        .map(|i| {
+            if reach[i] || gt.obstacle_column(i) {
+                return false;
+            }
+            let c = grid.cell(i);
+            !disc.iter().any(|&(dx, dy)| {
+                grid.checked_index(Cell::new(c.x + dx, c.y + dy))
+                    .is_some_and(|j| reach[j])
+            })
+        })
+        .collect()
+}
+
+/// The number of distinct band voxels among `marks` (cell, layer mask), which it sorts.
+fn beyond_voxels(marks: &mut [(usize, u64)], band: u64) -> usize {
+    marks.sort_unstable_by_key(|&(c, _)| c);
+    let mut n = 0;
+    let mut i = 0;
+    while i < marks.len() {
+        let (c, mut m) = marks[i];
+        i += 1;
+        while i < marks.len() && marks[i].0 == c {
+            m |= marks[i].1;
+            i += 1;
+        }
+        n += (m & band).count_ones() as usize;
+    }
+    n
+}
+
+/// The band voxels beyond the reachable region that one position must see for its neighbourhood to
+/// be sampled again: [`REFINE_BEYOND_M3`] in voxels.
+fn min_beyond_voxels(grid: &GridSpec) -> usize {
+    ((REFINE_BEYOND_M3 / grid.voxel_volume()).ceil() as usize).max(1)
+}
+
+/// The second pass of the sampling, where the view depends strongly on the position: around every
+/// coarse position that looked beyond the reachable region (through a gap too narrow to pass), the
+/// squares of the coarse lattice around it (3 × 3) are sampled again on a lattice of half the side.
+/// Positions already sampled are left out. Ascending.
+fn refined_positions(
+    grid: &GridSpec,
+    reachable: &[bool],
+    k: usize,
+    looked_beyond: &[usize],
+    coarse: &[usize],
+) -> Vec<usize> {
+    if looked_beyond.is_empty() {
+        return Vec::new();
+    }
+    let (sx, sy) = (grid.nx.div_ceil(k), grid.ny.div_ceil(k));
+    let mut refine = vec![false; sx * sy];
+    for &cell in looked_beyond {
+        let c = grid.cell(cell);
+        let (qx, qy) = (c.x as usize / k, c.y as usize / k);
+        for y in qy.saturating_sub(1)..(qy + 2).min(sy) {
+            for x in qx.saturating_sub(1)..(qx + 2).min(sx) {
+                refine[y * sx + x] = true;
+            }
+        }
+    }
+    let fine = (k / 2).max(1);
+    sample_positions(grid, reachable, fine, |bx, by| {
+        refine[(by / k) * sx + bx / k]
+    })
+    .into_iter()
+    .filter(|c| coarse.binary_search(c).is_err())
+    .collect()
+}
+
 /// How a cached set was obtained (reported to the user).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum CacheOutcome {
@@ -975,7 +1175,7 @@ const MAGIC: &[u8; 8] = b"TSOBS01\n";
 
 /// Revision of the computation, part of every key: bump it whenever the sampling, the sensor model
 /// or the traversal changes, so that no cache file of an older computation is ever read.
-const REVISION: u32 = 2;
+const REVISION: u32 = 3;
 
 impl ObservableCache {
     /// The cache in the user's cache folder (see the type doc); `None` folder when no home is known.
@@ -1275,15 +1475,20 @@ mod tests {
             (band.start as f64 * res, band.end as f64 * res),
         );
         assert!(caster.sweep_applies(&camera));
-        let positions = sample_positions(&gt.grid, gt.reachable_mask(), spacing);
+        let k = lattice_cells(&gt.grid, spacing);
+        let positions = sample_positions(&gt.grid, gt.reachable_mask(), k, |_, _| true);
+        let beyond = beyond_cells(&gt);
         let yaws: Vec<(f32, f32)> = (0..8)
             .map(|k| {
                 let yaw = std::f64::consts::TAU * k as f64 / 8.0;
                 (yaw.sin() as f32, yaw.cos() as f32)
             })
             .collect();
-        let rays = caster.frames_by_rays(&positions, &yaws, &camera);
-        let (swept, by_rays) = caster.frames_by_columns(&positions, &yaws, &camera);
+        let rays = caster.frames_by_rays(&positions, &yaws, &camera, &beyond);
+        let swept = caster.frames_by_columns(&positions, &yaws, &camera, &beyond);
+        // The two ways agree on which positions looked beyond the reachable region, too.
+        assert_eq!(rays.looked_beyond, swept.looked_beyond);
+        let (rays, swept, by_rays) = (rays.bits, swept.bits, swept.by_rays);
         let columns = positions.len() * yaws.len() * camera.image_size().0;
         assert!(!positions.is_empty());
         assert!(
@@ -1311,6 +1516,78 @@ mod tests {
             .join("scenes/floorplans/plan_a64cda6b6a.obj");
         let scene = crate::scene::load(&path, &Config::default().scene).unwrap();
         assert!(sweep_equals_rays(&scene.mesh, scene.spawn, 1.5) > 10_000);
+    }
+
+    #[test]
+    fn views_through_a_narrow_door_are_sampled_again_finer() {
+        let cfg = Config::default();
+        let mesh = room_with_closet();
+        let gt = GroundTruth::build(&mesh, Some(Pose2::new(3.0, 3.0, 0.0)), &cfg).unwrap();
+        let grid = gt.grid;
+        let beyond = beyond_cells(&gt);
+        let cell = |x: f64, y: f64| grid.index(grid.cell_at(x, y));
+        // The closet lies beyond the reachable region; nothing of the room does, not even the free
+        // band along its walls and around the table that the inflation keeps the robot out of.
+        assert!(beyond[cell(7.55, 1.05)] && beyond[cell(9.15, 2.05)] && beyond[cell(6.55, 0.25)]);
+        for (i, &b) in beyond.iter().enumerate() {
+            let p = grid.center(grid.cell(i));
+            if p.x > 0.1 && p.x < 6.1 && p.y > 0.1 && p.y < 6.1 {
+                assert!(!b, "{p:?}");
+            }
+        }
+        // The first pass alone, as `compute` runs it.
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let camera = DepthCamera::new(&cfg.camera);
+        let band = gt.band_layers();
+        let res = grid.res;
+        let caster = VoxelCaster::new(
+            &gt,
+            &bvh,
+            &camera,
+            (band.start as f64 * res, band.end as f64 * res),
+        );
+        let yaws: Vec<(f32, f32)> = (0..cfg.metrics.observable_yaws)
+            .map(|k| {
+                let yaw = std::f64::consts::TAU * k as f64 / cfg.metrics.observable_yaws as f64;
+                (yaw.sin() as f32, yaw.cos() as f32)
+            })
+            .collect();
+        let k = lattice_cells(&grid, cfg.metrics.observable_spacing_m);
+        let coarse = sample_positions(&grid, gt.reachable_mask(), k, |_, _| true);
+        let first = caster.frames_by_columns(&coarse, &yaws, &camera, &beyond);
+        // Some positions look into the closet through the door, and only those of the room's
+        // eastern part (the closet is out of range of the rest).
+        assert!(!first.looked_beyond.is_empty());
+        assert!(first
+            .looked_beyond
+            .iter()
+            .all(|&c| grid.center(grid.cell(c)).x > 1.0));
+        let fine = refined_positions(&grid, gt.reachable_mask(), k, &first.looked_beyond, &coarse);
+        assert!(fine.len() > first.looked_beyond.len());
+        assert!(fine
+            .iter()
+            .all(|&c| gt.reachable(c) && !coarse.contains(&c)));
+        // Every refined position lies in a square next to one that looked beyond.
+        let square = |c: usize| {
+            let c = grid.cell(c);
+            (c.x / k as i32, c.y / k as i32)
+        };
+        assert!(fine.iter().all(|&f| first.looked_beyond.iter().any(|&l| {
+            let (a, b) = (square(f), square(l));
+            (a.0 - b.0).abs() <= 1 && (a.1 - b.1).abs() <= 1
+        })));
+        // The set holds the first pass and sees more of the closet.
+        let coarse_set = ObservableSet::from_bits(&gt, first.bits, coarse.len());
+        let set = ObservableSet::compute(&gt, &bvh, &camera, &ObservableParams::from_config(&cfg));
+        assert_eq!(set.positions(), coarse.len() + fine.len());
+        assert!((0..grid.voxels()).all(|v| !coarse_set.contains(v) || set.contains(v)));
+        let in_closet = |s: &ObservableSet| {
+            (0..grid.voxels())
+                .filter(|&v| s.contains(v) && beyond[grid.voxel_parts(v).0])
+                .count()
+        };
+        let (before, after) = (in_closet(&coarse_set), in_closet(&set));
+        assert!(after > before, "{before} → {after} closet voxels");
     }
 
     #[test]
@@ -1438,7 +1715,7 @@ mod tests {
             reach[grid.index(Cell::new(x, 7))] = true;
         }
         reach[grid.index(Cell::new(13, 13))] = true;
-        let pos = sample_positions(&grid, &reach, 0.5);
+        let pos = sample_positions(&grid, &reach, lattice_cells(&grid, 0.5), |_, _| true);
         // Corridor cells 2..18 fall in blocks x 0..5, 5..10, 10..15, 15..20: one each; plus the cell.
         assert_eq!(pos.len(), 5, "{pos:?}");
         assert!(pos.contains(&grid.index(Cell::new(13, 13))));
