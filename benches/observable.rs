@@ -24,7 +24,7 @@ fn observable(c: &mut Criterion) {
         let gt = GroundTruth::build(&scene.mesh, scene.spawn, &cfg).unwrap();
         let bvh = MeshBvh::new(&scene.mesh).unwrap();
         let camera = DepthCamera::new(&cfg.camera);
-        let params = ObservableParams::from_config(&cfg);
+        let params = ObservableParams::from_config(&cfg.metrics);
         g.bench_function(name, |b| {
             b.iter(|| ObservableSet::compute(&gt, &bvh, &camera, &params))
         });

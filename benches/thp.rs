@@ -12,7 +12,7 @@ use std::path::Path;
 use std::time::Duration;
 use tensorscout::map::Map;
 use tensorscout::plan::search::Search;
-use tensorscout::plan::thp::Thp;
+use tensorscout::plan::thp::{Thp, ThpParams};
 use tensorscout::plan::{Action, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
 use tensorscout::sim::{self, Simulation, World};
 use tensorscout::{scene, Config, Pose2, Result};
@@ -105,7 +105,7 @@ fn thp_plan(c: &mut Criterion) {
     let scene = scene::load(&path, &cfg.scene).unwrap();
     let world = World::with_cache(&scene, &cfg, None, &bench_cache()).unwrap();
     let mut recorder = Recorder {
-        thp: Thp::new(&cfg),
+        thp: Thp::new(&ThpParams::from(&cfg)),
         plans: 0,
         saved: Vec::new(),
     };

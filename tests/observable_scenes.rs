@@ -42,7 +42,7 @@ fn halving_the_spacing_changes_the_volume_by_under_one_percent() {
         let bvh = MeshBvh::new(&s.mesh).unwrap();
         let camera = DepthCamera::new(&cfg.camera);
         let volume = |spacing: f64| {
-            let mut p = ObservableParams::from_config(&cfg);
+            let mut p = ObservableParams::from_config(&cfg.metrics);
             p.spacing_m = spacing;
             ObservableSet::compute(&gt, &bvh, &camera, &p).volume_m3()
         };

@@ -435,7 +435,7 @@ impl PlannerKind {
     pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(&cfg.greedy))),
-            PlannerKind::Thp => Ok(Box::new(thp::Thp::new(cfg))),
+            PlannerKind::Thp => Ok(Box::new(thp::Thp::new(&thp::ThpParams::from(cfg)))),
             PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(&cfg.into()))),
             PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(&cfg.into()))),
         }

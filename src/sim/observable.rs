@@ -39,7 +39,9 @@
 //! config keys the set depends on, written atomically and checked on read (length, key and
 //! checksum): a damaged file is recomputed and reported, never trusted.
 
+#[cfg(test)]
 use crate::config::Config;
+use crate::config::{CameraConfig, MetricsConfig};
 use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
 use crate::map::occupancy::traverse_while;
 use crate::scene::{GroundTruth, Scene, VoxelTriangles};
@@ -71,10 +73,10 @@ pub struct ObservableParams {
 }
 
 impl ObservableParams {
-    pub fn from_config(cfg: &Config) -> Self {
+    pub fn from_config(metrics: &MetricsConfig) -> Self {
         ObservableParams {
-            spacing_m: cfg.metrics.observable_spacing_m,
-            yaws: cfg.metrics.observable_yaws,
+            spacing_m: metrics.observable_spacing_m,
+            yaws: metrics.observable_yaws,
         }
     }
 }
@@ -1217,16 +1219,21 @@ impl ObservableCache {
 
     /// The cache key: the scene's content, the grid, the reachable region (which holds the robot's
     /// size, the inflation and the spawn's component), the band, the camera and the sampling.
-    pub fn key(scene_hash: &str, gt: &GroundTruth, cfg: &Config) -> u64 {
+    pub fn key(
+        scene_hash: &str,
+        gt: &GroundTruth,
+        camera: &CameraConfig,
+        params: &ObservableParams,
+    ) -> u64 {
         let reach: Vec<u8> = gt.reachable_mask().iter().map(|&r| r as u8).collect();
         let text = format!(
             "observable r{REVISION}|{scene_hash}|{:?}|{:016x}|{:?}|{}|{}|{}",
             gt.grid,
             fnv1a64(&reach),
             gt.band_layers(),
-            toml::to_string(&cfg.camera).unwrap_or_default(),
-            cfg.metrics.observable_spacing_m,
-            cfg.metrics.observable_yaws,
+            toml::to_string(camera).unwrap_or_default(),
+            params.spacing_m,
+            params.yaws,
         );
         fnv1a64(text.as_bytes())
     }
@@ -1238,20 +1245,14 @@ impl ObservableCache {
         scene: &Scene,
         gt: &GroundTruth,
         bvh: &MeshBvh,
-        cfg: &Config,
+        camera: &CameraConfig,
+        params: &ObservableParams,
     ) -> (ObservableSet, CacheOutcome) {
-        let compute = || {
-            ObservableSet::compute(
-                gt,
-                bvh,
-                &DepthCamera::new(&cfg.camera),
-                &ObservableParams::from_config(cfg),
-            )
-        };
+        let compute = || ObservableSet::compute(gt, bvh, &DepthCamera::new(camera), params);
         let Some(dir) = &self.dir else {
             return (compute(), CacheOutcome::Uncached(None));
         };
-        let key = Self::key(&scene.content_hash, gt, cfg);
+        let key = Self::key(&scene.content_hash, gt, camera, params);
         let path = dir.join(format!("{key:016x}.bin"));
         let damage = match std::fs::read(&path) {
             Ok(bytes) => match decode(&bytes, key, gt) {
@@ -1578,7 +1579,12 @@ mod tests {
         })));
         // The set holds the first pass and sees more of the closet.
         let coarse_set = ObservableSet::from_bits(&gt, first.bits, coarse.len());
-        let set = ObservableSet::compute(&gt, &bvh, &camera, &ObservableParams::from_config(&cfg));
+        let set = ObservableSet::compute(
+            &gt,
+            &bvh,
+            &camera,
+            &ObservableParams::from_config(&cfg.metrics),
+        );
         assert_eq!(set.positions(), coarse.len() + fine.len());
         assert!((0..grid.voxels()).all(|v| !coarse_set.contains(v) || set.contains(v)));
         let in_closet = |s: &ObservableSet| {
@@ -1600,7 +1606,7 @@ mod tests {
             &gt,
             &bvh,
             &DepthCamera::new(&cfg.camera),
-            &ObservableParams::from_config(&cfg),
+            &ObservableParams::from_config(&cfg.metrics),
         );
         let cell = |x: f64, y: f64| gt.grid.index(gt.grid.cell_at(x, y));
         // The door (0.5 m) is narrower than 2 × 0.29 m: the closet is not reachable ...
@@ -1631,14 +1637,32 @@ mod tests {
         let bvh = MeshBvh::new(&mesh).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let cache = ObservableCache::at(dir.path());
-        let (fresh, how) = ObservableCache::none().get_or_compute(&scene, &gt, &bvh, &cfg);
+        let (fresh, how) = ObservableCache::none().get_or_compute(
+            &scene,
+            &gt,
+            &bvh,
+            &cfg.camera,
+            &ObservableParams::from_config(&cfg.metrics),
+        );
         assert_eq!(how, CacheOutcome::Uncached(None));
-        let (first, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+        let (first, how) = cache.get_or_compute(
+            &scene,
+            &gt,
+            &bvh,
+            &cfg.camera,
+            &ObservableParams::from_config(&cfg.metrics),
+        );
         let CacheOutcome::Computed(path) = how else {
             panic!("{how:?}")
         };
         assert_eq!(first, fresh);
-        let (hit, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+        let (hit, how) = cache.get_or_compute(
+            &scene,
+            &gt,
+            &bvh,
+            &cfg.camera,
+            &ObservableParams::from_config(&cfg.metrics),
+        );
         assert_eq!(how, CacheOutcome::Hit(path.clone()));
         assert_eq!(hit, fresh);
         // A truncated file, a flipped byte and a file of another key are each found, recomputed and
@@ -1658,7 +1682,13 @@ mod tests {
             (&b""[..], "0 bytes"),
         ] {
             std::fs::write(&path, bytes).unwrap();
-            let (set, how) = cache.get_or_compute(&scene, &gt, &bvh, &cfg);
+            let (set, how) = cache.get_or_compute(
+                &scene,
+                &gt,
+                &bvh,
+                &cfg.camera,
+                &ObservableParams::from_config(&cfg.metrics),
+            );
             assert_eq!(set, fresh);
             let CacheOutcome::Repaired(p, reason) = &how else {
                 panic!("{how:?}")
@@ -1672,8 +1702,18 @@ mod tests {
         let mut coarse = cfg.clone();
         coarse.metrics.observable_spacing_m = 1.0;
         assert_ne!(
-            ObservableCache::key("test", &gt, &cfg),
-            ObservableCache::key("test", &gt, &coarse)
+            ObservableCache::key(
+                "test",
+                &gt,
+                &cfg.camera,
+                &ObservableParams::from_config(&cfg.metrics)
+            ),
+            ObservableCache::key(
+                "test",
+                &gt,
+                &coarse.camera,
+                &ObservableParams::from_config(&coarse.metrics)
+            )
         );
     }
 
@@ -1693,7 +1733,7 @@ mod tests {
                         &gt,
                         &bvh,
                         &DepthCamera::new(&cfg.camera),
-                        &ObservableParams::from_config(&cfg),
+                        &ObservableParams::from_config(&cfg.metrics),
                     )
                 })
         };

@@ -5,7 +5,7 @@ use super::metrics::{
     surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult, Termination,
 };
 use super::motion::{MotionExecutor, MotionParams, MotionStatus};
-use super::observable::{CacheOutcome, ObservableCache, ObservableSet};
+use super::observable::{CacheOutcome, ObservableCache, ObservableParams, ObservableSet};
 use super::robot::Robot;
 use crate::config::{Config, DepthRenderer, SpawnMode};
 use crate::field::TensorField;
@@ -106,7 +106,13 @@ impl World {
         }
         let ground_truth = crate::scene::build_ground_truth(scene, spawn, cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
-        let (observable, observable_source) = cache.get_or_compute(scene, &ground_truth, &bvh, cfg);
+        let (observable, observable_source) = cache.get_or_compute(
+            scene,
+            &ground_truth,
+            &bvh,
+            &cfg.camera,
+            &ObservableParams::from_config(&cfg.metrics),
+        );
         let ground_truth = match cfg.sim.spawn {
             SpawnMode::Scene => ground_truth,
             SpawnMode::Random => {

@@ -61,7 +61,7 @@
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, FrontierVisits, Visit};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
-use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, Planner};
+use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
 use crate::config::{Config, FieldConfig, Grouping, ThpConfig, TourStart};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
@@ -126,6 +126,25 @@ pub struct Thp {
     escape_tries: BTreeMap<usize, u32>,
 }
 
+/// What THP takes from the config: its own section, the field's, and the shared planning parameters
+/// (the blind-zone radius of the searches, the robot's radius, the executor's goal tolerance).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThpParams {
+    pub thp: ThpConfig,
+    pub field: FieldConfig,
+    pub plan: PlanParams,
+}
+
+impl From<&Config> for ThpParams {
+    fn from(cfg: &Config) -> ThpParams {
+        ThpParams {
+            thp: cfg.thp.clone(),
+            field: cfg.field.clone(),
+            plan: PlanParams::from(cfg),
+        }
+    }
+}
+
 /// THP's run statistics (`planner_stats`, under the field names).
 #[derive(Clone, Debug, Default)]
 struct ThpStats {
@@ -155,14 +174,14 @@ struct ThpStats {
 }
 
 impl Thp {
-    pub fn new(cfg: &Config) -> Self {
+    pub fn new(params: &ThpParams) -> Self {
         Thp {
-            cfg: cfg.thp.clone(),
-            field_cfg: cfg.field.clone(),
-            view_m: cfg.thp.view_distance_m,
-            near_unknown_m: cfg.search.near_unknown_radius_m,
-            goal_tolerance_m: cfg.motion.goal_tolerance_m,
-            radius_m: cfg.robot.radius_m,
+            cfg: params.thp.clone(),
+            field_cfg: params.field.clone(),
+            view_m: params.thp.view_distance_m,
+            near_unknown_m: params.plan.search.near_unknown_radius_m,
+            goal_tolerance_m: params.plan.motion.goal_tolerance_m,
+            radius_m: params.plan.robot.radius_m,
             field: None,
             next_key_frame_s: 0.0,
             anchors: Vec::new(),
