@@ -110,3 +110,59 @@ impl Mode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn goal(final_segment: bool) -> Goal {
+        Goal {
+            visit: Visit {
+                aim: 7,
+                ..Visit::default()
+            },
+            tour_node: Some(3),
+            path: Vec::new(),
+            path_cells: Vec::new(),
+            look_on_arrival: true,
+            final_segment,
+            stale: false,
+            best_progress: 0,
+            progress_s: 0.0,
+            direct: false,
+        }
+    }
+
+    #[test]
+    fn transitions_follow_the_diagram() {
+        // An advected segment that ends short of the goal keeps the goal.
+        let mut m = Mode::default();
+        m.drive(goal(false));
+        assert_eq!(m.action_ended(true, true, |_| true), None);
+        assert!(m.goal().is_some());
+        // An interruption keeps the goal too; its last segment is over once the frontier is seen.
+        m.interrupt();
+        assert_eq!(m.action_ended(false, false, |_| false), None);
+        assert!(m.goal().is_some_and(|g| g.final_segment));
+        // The last segment reached: the attempt is over and reported.
+        let ended = m.action_ended(true, true, |_| true);
+        assert_eq!(ended.map(|(v, r)| (v.aim, r)), Some((7, true)));
+        assert!(matches!(m, Mode::Idle));
+        // A failed attempt that moved the robot: over, reported, idle.
+        m.drive(goal(true));
+        assert_eq!(
+            m.action_ended(false, true, |_| true).map(|e| e.1),
+            Some(false)
+        );
+        assert!(matches!(m, Mode::Idle) && !m.unblock());
+        // A failed attempt that did not move it: blocked until the look.
+        m.drive(goal(true));
+        assert_eq!(
+            m.action_ended(false, false, |_| true).map(|e| e.1),
+            Some(false)
+        );
+        assert!(matches!(m, Mode::Blocked) && m.goal().is_none());
+        assert!(m.unblock());
+        assert!(matches!(m, Mode::Idle));
+    }
+}
