@@ -119,6 +119,7 @@ pub struct Config {
     pub motion: MotionConfig,
     pub search: SearchConfig,
     pub greedy: GreedyConfig,
+    pub volume_views: VolumeViewsConfig,
     pub field: FieldConfig,
     pub thp: ThpConfig,
     pub tensor: TensorConfig,
@@ -253,6 +254,15 @@ pub struct SearchConfig {
 pub struct GreedyConfig {
     pub look_around_on_arrival: bool,
     pub view_distance_m: NonNegative,
+}
+
+/// Volume views before `complete`, taken by GREEDY and THP (see `plan::view_gain::VolumeViews`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeViewsConfig {
+    pub enabled: bool,
+    pub gain_cutoff_m3: NonNegative,
+    pub spacing_m: Positive,
 }
 
 /// The tensor field (THP Eq. 11, TENSOR §4 and §6); see `src/field/`.
@@ -652,6 +662,7 @@ impl Config {
         self.camera.validate()?;
         self.robot.validate(self.sim.dt_s)?;
         self.greedy.validate()?;
+        self.volume_views.validate()?;
         self.search.validate()?;
         self.motion.validate()?;
         self.field.validate()?;
@@ -780,6 +791,13 @@ impl RobotConfig {
 
 impl GreedyConfig {
     /// `view_distance_m` is [`NonNegative`]: nothing is left to check.
+    fn validate(&self) -> Result<()> {
+        Ok(())
+    }
+}
+
+impl VolumeViewsConfig {
+    /// Both numbers are newtypes that check themselves: nothing is left to check.
     fn validate(&self) -> Result<()> {
         Ok(())
     }

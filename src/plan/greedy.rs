@@ -6,10 +6,13 @@
 //! blocked. Frontier cells within `search.near_unknown_radius_m` of the robot are skipped: they border
 //! the camera's blind zone and are seen once the robot moves on. When no reachable frontier is left,
 //! the robot still looks once at each frontier seen through a gap too narrow to pass, from a reachable
-//! cell in line of sight (see [`super::frontier_visit::distant_view`]). The run is complete when no
-//! frontier it could reach or look at is left.
+//! cell in line of sight (see [`super::frontier_visit::distant_view`]), and then, with
+//! `volume_views.enabled` (on by default; not part of Yamauchi's method), drives to each place from
+//! which the camera would still see unknown volume that no frontier shows
+//! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
 
 use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
+use super::view_gain::VolumeViews;
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::GreedyConfig;
 use crate::Result;
@@ -29,10 +32,16 @@ pub struct Greedy {
     rerouted: bool,
     /// Looks through gaps too narrow to pass (`planner_stats.distant_views`).
     distant_views: Count,
+    /// Views of the unknown volume before `Complete` (`volume_views.enabled`), if on.
+    volume_views: Option<VolumeViews>,
+    /// Volume views taken (`planner_stats.volume_views`).
+    volume_views_taken: Count,
 }
 
 impl Greedy {
-    pub fn new(cfg: &GreedyConfig) -> Self {
+    /// GREEDY with its section of the config, and the volume views it takes before `Complete`
+    /// (`None`: it completes when no frontier is left, as Yamauchi's method).
+    pub fn new(cfg: &GreedyConfig, volume_views: Option<VolumeViews>) -> Self {
         Greedy {
             cfg: cfg.clone(),
             visits: FrontierVisits::default(),
@@ -40,6 +49,8 @@ impl Greedy {
             path_cells: Vec::new(),
             rerouted: false,
             distant_views: Count::default(),
+            volume_views,
+            volume_views_taken: Count::default(),
         }
     }
 
@@ -109,7 +120,15 @@ impl Greedy {
                 let Some(view) =
                     distant_view(map, &df, &cells, |i| self.visits.is_unobservable(i), view_m)
                 else {
-                    return Ok(Action::Complete);
+                    // Then at the unknown volume no frontier shows, if on.
+                    let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, &df))
+                    else {
+                        return Ok(Action::Complete);
+                    };
+                    self.volume_views_taken.add(1.0);
+                    let action;
+                    (action, self.path_cells) = follow_to(&grid, &df, view.cell, true);
+                    return Ok(action);
                 };
                 self.distant_views.add(1.0);
                 self.visit = Some(Visit {
@@ -172,7 +191,10 @@ impl Planner for Greedy {
     }
 
     fn stats(&self) -> BTreeMap<String, f64> {
-        super::counted([("distant_views", self.distant_views)])
+        super::counted([
+            ("distant_views", self.distant_views),
+            ("volume_views", self.volume_views_taken),
+        ])
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {

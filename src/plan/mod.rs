@@ -11,6 +11,7 @@ pub mod search;
 pub(crate) mod tensor;
 pub mod thp;
 pub mod tsp;
+pub(crate) mod view_gain;
 
 use crate::config::{Config, MotionConfig, RobotConfig, SearchConfig};
 use crate::field::TensorField;
@@ -434,7 +435,10 @@ impl PlannerKind {
     /// A fresh planner of this kind.
     pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
         match self {
-            PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(&cfg.greedy))),
+            PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(
+                &cfg.greedy,
+                view_gain::VolumeViews::new(&cfg.into()),
+            ))),
             PlannerKind::Thp => Ok(Box::new(thp::Thp::new(&thp::ThpParams::from(cfg)))),
             PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(&cfg.into()))),
             PlannerKind::Nbv => Ok(Box::new(nbv::Nbv::new(&cfg.into()))),

@@ -36,25 +36,22 @@
 
 use super::frontier_visit::{distant_view, follow_to, line_of_sight};
 use super::tsp::{self, CostMatrix, GaParams};
+use super::view_gain::GainModel;
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::{CameraConfig, Config, NbvConfig};
-use crate::map::occupancy::{traverse, VoxelState};
 use crate::map::Map;
 use crate::Result;
-use nalgebra::{Point2, Point3, Vector3};
+use nalgebra::Point2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use std::f64::consts::TAU;
-use std::ops::Range;
 use std::time::Instant;
 
 /// Failed approaches after which a viewpoint cell is given up.
 const MAX_ATTEMPTS: u32 = 2;
 /// Steps between re-evaluations of the target's gain while driving (1 s at the default `dt`).
 const RECHECK_STEPS: u32 = 10;
-/// Rays stop contributing once their visibility falls below this.
-const MIN_VISIBILITY: f64 = 1e-3;
 
 /// What NBV-TSP reads of the config: its own section, the camera whose views it predicts, the height
 /// band of the explored volume, the distance GREEDY stops short of a frontier (shared for the look
@@ -90,168 +87,6 @@ impl From<&NbvConfig> for GaParams {
             generations: c.ga_generations,
             stall_generations: c.ga_stall_generations,
         }
-    }
-}
-
-/// The coarse ray fan of the gain model (all yaws at once) and its constants.
-struct GainModel {
-    /// Azimuth columns over the full circle.
-    n_az: usize,
-    /// Columns in one field of view (the window whose best sum picks the yaw).
-    window: usize,
-    /// Per elevation row: (sin, cos) of the elevation and the row's solid-angle weight per column.
-    rows: Vec<(f64, f64, f64)>,
-    mount_m: f64,
-    min_range_m: f64,
-    max_range_m: f64,
-    /// Height band of the explored volume, metres.
-    band_m: (f64, f64),
-    visibility_length_m: f64,
-    cover_min_visibility: f64,
-}
-
-/// A viewpoint's predicted observation.
-struct Gain {
-    /// Expected unknown volume seen from the best yaw, m³ (Eq. 6).
-    volume_m3: f64,
-    yaw: f64,
-}
-
-impl GainModel {
-    fn new(cfg: &NbvParams) -> Self {
-        let c = &cfg.camera;
-        let stride = cfg.nbv.gain_ray_stride;
-        let cols = c.width.div_ceil(stride).max(1);
-        let rows = c.height.div_ceil(stride).max(1);
-        let hfov = c.hfov_deg.to_radians();
-        let vfov = c.vfov_deg.to_radians();
-        let n_az = ((TAU / (hfov / cols as f64)).round() as usize).max(1);
-        let d_az = TAU / n_az as f64;
-        let window = ((hfov / d_az).round() as usize).clamp(1, n_az);
-        let d_el = vfov / rows as f64;
-        let rows = (0..rows)
-            .map(|k| {
-                let el = -0.5 * vfov + (k as f64 + 0.5) * d_el;
-                (el.sin(), el.cos(), d_az * d_el * el.cos())
-            })
-            .collect();
-        GainModel {
-            n_az,
-            window,
-            rows,
-            mount_m: c.mount_height_m.get(),
-            min_range_m: c.min_range_m.get(),
-            max_range_m: c.max_range_m.get(),
-            band_m: cfg.band_m,
-            visibility_length_m: cfg.nbv.visibility_length_m,
-            cover_min_visibility: cfg.nbv.cover_min_visibility,
-        }
-    }
-
-    fn azimuth(&self, a: usize) -> f64 {
-        (a as f64 + 0.5) * TAU / self.n_az as f64
-    }
-
-    /// Casts one ray from `origin` at azimuth `az` and elevation row `k`; calls `visit(cell, vis)`
-    /// for each voxel it enters with visibility at or above the cutoff; returns Σ p·vis·t²·dt over
-    /// the unknown voxels in the band (Eq. 4–5; times the row weight, the ray's solid angle).
-    fn cast(
-        &self,
-        map: &Map,
-        band: &Range<usize>,
-        origin: Point3<f64>,
-        az: f64,
-        k: usize,
-        mut visit: impl FnMut(usize, f64),
-    ) -> f64 {
-        let (s_el, c_el, _) = self.rows[k];
-        let dir = Vector3::new(c_el * az.cos(), c_el * az.sin(), s_el);
-        let occ = map.occupancy();
-        let grid = occ.grid();
-        let layer_len = grid.cells();
-        let inv_l = 1.0 / self.visibility_length_m;
-        let ln_half = 0.5f64.ln();
-        let mut vis = 1.0f64;
-        let mut sum = 0.0;
-        traverse(grid, origin, dir, self.max_range_m, |v, t_in, t_out| {
-            if vis < MIN_VISIBILITY {
-                return;
-            }
-            let seg = t_out - t_in;
-            visit(v % layer_len, vis);
-            match occ.state(v) {
-                VoxelState::Unknown => {
-                    let factor = (ln_half * seg * inv_l).exp();
-                    let t_from = t_in.max(self.min_range_m);
-                    if t_out > t_from && band.contains(&(v / layer_len)) {
-                        // Midpoint rule over the part of the voxel beyond the minimum range.
-                        let t = 0.5 * (t_from + t_out);
-                        let vis_mid = vis * (ln_half * (t - t_in) * inv_l).exp();
-                        sum += 0.5 * vis_mid * t * t * (t_out - t_from);
-                    }
-                    vis *= factor;
-                }
-                VoxelState::Free => {
-                    // ln(1 − p) = −ln(1 + e^l) for log-odds l.
-                    let l = occ.log_odds(v) as f64;
-                    vis *= (-(l.exp().ln_1p()) * seg * inv_l).exp();
-                }
-                VoxelState::Occupied => {
-                    let l = occ.log_odds(v) as f64;
-                    vis /= 1.0 + l.exp();
-                }
-            }
-        });
-        sum
-    }
-
-    /// The best-yaw gain at `p` (Eq. 6 over one field of view, best of `n_az` yaws).
-    fn evaluate(&self, map: &Map, p: Point2<f64>) -> Gain {
-        let band = map.grid().layers_in(self.band_m.0, self.band_m.1);
-        let origin = Point3::new(p.x, p.y, self.mount_m);
-        let cols: Vec<f64> = (0..self.n_az)
-            .map(|a| {
-                let az = self.azimuth(a);
-                (0..self.rows.len())
-                    .map(|k| self.rows[k].2 * self.cast(map, &band, origin, az, k, |_, _| {}))
-                    .sum()
-            })
-            .collect();
-        // Best circular window of `window` columns; ties to the lowest start.
-        let mut sum: f64 = cols[..self.window].iter().sum();
-        let (mut best, mut best_start) = (sum, 0);
-        for s in 1..self.n_az {
-            sum += cols[(s + self.window - 1) % self.n_az] - cols[s - 1];
-            if sum > best + 1e-12 {
-                (best, best_start) = (sum, s);
-            }
-        }
-        let mid = best_start as f64 + 0.5 * self.window as f64 - 0.5;
-        Gain {
-            volume_m3: best.max(0.0),
-            yaw: (mid + 0.5) * TAU / self.n_az as f64,
-        }
-    }
-
-    /// The floor cells the rays of yaw `yaw` reach with visibility ≥ `cover_min_visibility`.
-    fn covered(&self, map: &Map, p: Point2<f64>, yaw: f64) -> Vec<u32> {
-        let band = map.grid().layers_in(self.band_m.0, self.band_m.1);
-        let origin = Point3::new(p.x, p.y, self.mount_m);
-        let d_az = TAU / self.n_az as f64;
-        let mut out = Vec::new();
-        for w in 0..self.window {
-            let az = yaw + (w as f64 - 0.5 * (self.window as f64 - 1.0)) * d_az;
-            for k in 0..self.rows.len() {
-                self.cast(map, &band, origin, az, k, |cell, vis| {
-                    if vis >= self.cover_min_visibility {
-                        out.push(cell as u32);
-                    }
-                });
-            }
-        }
-        out.sort_unstable();
-        out.dedup();
-        out
     }
 }
 
@@ -315,7 +150,7 @@ struct NbvStats {
 impl Nbv {
     pub fn new(cfg: &NbvParams) -> Self {
         Nbv {
-            model: GainModel::new(cfg),
+            model: GainModel::new(&cfg.camera, cfg.band_m, &cfg.nbv),
             cfg: cfg.nbv.clone(),
             view_m: cfg.view_distance_m,
             // The planner's own stream, derived from the run's seed.
@@ -732,119 +567,10 @@ mod tests {
     use super::*;
     use crate::grid::GridSpec;
     use crate::map::testing::seen_from;
-    use crate::map::Map;
     use crate::scene::TriMesh;
     use crate::sensor::raycast::testing::push_box;
     use crate::sensor::raycast::MeshBvh;
-    use crate::util::wrap_angle;
     use crate::Pose2;
-
-    fn floor_grid(cfg: &Config, half: f64) -> GridSpec {
-        GridSpec::covering(
-            Point2::new(-half, -half),
-            Point2::new(half, half),
-            cfg.map.band_max_m,
-            cfg.map.voxel_m,
-        )
-    }
-
-    /// One horizontal-most ray through an all-unknown map: the voxel sum equals the closed form
-    /// of Eq. 4–5 along the ray, ∫ p · e^(−a t) · t² dt from the camera's minimum range, with
-    /// p = 0.5 and a = ln 2 / visibility_length_m (an unknown voxel has unoccupancy 0.5).
-    #[test]
-    fn ray_gain_in_unknown_space_matches_the_closed_form() {
-        let cfg = Config::default();
-        let map = Map::new(floor_grid(&cfg, 8.0), &cfg);
-        let model = GainModel::new(&NbvParams::from(&cfg));
-        let band = map.grid().layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
-        let k = model.rows.len() / 2;
-        let origin = Point3::new(0.03, 0.07, model.mount_m);
-        let got = model.cast(&map, &band, origin, 0.3, k, |_, _| {});
-        let a = 2f64.ln() / cfg.nbv.visibility_length_m;
-        // ∫ t² e^(−a t) dt = −e^(−a t) (t²/a + 2t/a² + 2/a³).
-        let anti = |t: f64| -(-a * t).exp() * (t * t / a + 2.0 * t / (a * a) + 2.0 / (a * a * a));
-        let (t0, t1) = (cfg.camera.min_range_m.get(), cfg.camera.max_range_m.get());
-        let want = 0.5 * (anti(t1) - anti(t0));
-        assert!(
-            (got - want).abs() <= 0.03 * want,
-            "voxel sum {got} vs closed form {want}"
-        );
-    }
-
-    /// Without any known voxel the gain exceeds the cutoff; in a walled room scanned all around it
-    /// falls to under a tenth of that.
-    #[test]
-    fn unknown_map_gain_is_positive_and_known_free_space_has_none() {
-        let cfg = Config::default();
-        let grid = floor_grid(&cfg, 8.0);
-        let map = Map::new(grid, &cfg);
-        let model = GainModel::new(&NbvParams::from(&cfg));
-        let g = model.evaluate(&map, Point2::new(0.0, 0.0));
-        assert!(g.volume_m3 > cfg.nbv.gain_cutoff_m3, "{}", g.volume_m3);
-        // An empty floor scanned all around from the centre: nothing unknown is left nearby.
-        let mut mesh = TriMesh::default();
-        push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
-        for (lo, hi) in [
-            ([-2.0, -2.1, 0.0], [2.0, -2.0, 2.0]),
-            ([-2.0, 2.0, 0.0], [2.0, 2.1, 2.0]),
-            ([-2.1, -2.1, 0.0], [-2.0, 2.1, 2.0]),
-            ([2.0, -2.1, 0.0], [2.1, 2.1, 2.0]),
-        ] {
-            push_box(&mut mesh, lo, hi);
-        }
-        let bvh = MeshBvh::new(&mesh).unwrap();
-        let map = seen_from(
-            grid,
-            &cfg,
-            &bvh,
-            (0..64).map(|i| {
-                let yaw = i as f64 * TAU / 32.0;
-                let r = if i < 32 { 0.0 } else { 1.0 };
-                Pose2::new(r * yaw.cos(), r * yaw.sin(), yaw)
-            }),
-        );
-        let closed = model.evaluate(&map, Point2::new(0.0, 0.0));
-        assert!(
-            closed.volume_m3 < 0.1 * g.volume_m3,
-            "{} vs {}",
-            closed.volume_m3,
-            g.volume_m3
-        );
-    }
-
-    /// Facing a scanned wall, the best yaw looks elsewhere (the wall hides what lies behind it), and
-    /// the covered cells of a yaw lie in front of the viewpoint, within the camera's range.
-    #[test]
-    fn best_yaw_avoids_a_wall_and_coverage_lies_in_view() {
-        let cfg = Config::default();
-        let grid = floor_grid(&cfg, 8.0);
-        let mut mesh = TriMesh::default();
-        push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
-        push_box(&mut mesh, [1.5, -4.0, 0.0], [1.6, 4.0, 2.5]);
-        let bvh = MeshBvh::new(&mesh).unwrap();
-        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(0.0, 0.0, 0.0); 3]);
-        let model = GainModel::new(&NbvParams::from(&cfg));
-        let g = model.evaluate(&map, Point2::new(0.0, 0.0));
-        let half_fov = 0.5 * cfg.camera.hfov_deg.to_radians();
-        assert!(
-            wrap_angle(g.yaw).abs() >= half_fov,
-            "best yaw {} should not face the wall at +x",
-            g.yaw
-        );
-        let cov = model.covered(&map, Point2::new(0.0, 0.0), 0.0);
-        assert!(!cov.is_empty());
-        for &c in &cov {
-            let p = grid.center(grid.cell(c as usize));
-            let d = p.coords.norm();
-            assert!(d <= cfg.camera.max_range_m.get() + grid.res, "{p}");
-            if d > 0.3 {
-                assert!(
-                    p.y.atan2(p.x).abs() <= half_fov + 0.15,
-                    "cell {p} outside the field of view"
-                );
-            }
-        }
-    }
 
     #[test]
     fn line_of_sight_is_blocked_by_obstacle_cells() {

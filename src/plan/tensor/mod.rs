@@ -370,7 +370,8 @@ impl Tensor {
             next_key_s: 0.0,
             window: None,
             window_center: Point2::origin(),
-            greedy: Greedy::new(&cfg.greedy),
+            // TENSOR's hand-over keeps GREEDY as published: no volume views.
+            greedy: Greedy::new(&cfg.greedy, None),
             mode: Mode::Field,
             current: Current::None,
             heading_override: None,
