@@ -121,11 +121,9 @@ impl Greedy {
                     distant_view(map, &df, &cells, |i| self.visits.is_unobservable(i), view_m)
                 else {
                     // Then at the unknown volume no frontier shows, if on.
-                    let Some(views) = self.volume_views.as_mut() else {
+                    let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, &df))
+                    else {
                         return Ok(Action::Complete);
-                    };
-                    let Some(view) = views.next(map, &df) else {
-                        return Ok(views.escape(ctx, start, &df).unwrap_or(Action::Complete));
                     };
                     self.volume_views_taken.add(1.0);
                     let action;
@@ -196,10 +194,6 @@ impl Planner for Greedy {
         super::counted([
             ("distant_views", self.distant_views),
             ("volume_views", self.volume_views_taken),
-            (
-                "volume_view_escapes",
-                super::view_gain::escapes_counted(&self.volume_views),
-            ),
         ])
     }
 

@@ -178,10 +178,6 @@ pub fn search_source(
     best.map(|b| b.1)
 }
 
-/// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
-/// margin), metres.
-pub const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
-
 /// A way out for a robot trapped in a pocket of the map: the cells reachable under [`step_cost`]
 /// (`reachable`) hold no goal, because the robot entered through unknown space (its blind zone) a
 /// door that the obstacles seen since have inflated shut. The escape search also enters inflated

@@ -186,10 +186,6 @@ impl GainModel {
 /// again from beside it would only repeat the trip.
 const VIEW_GIVE_UP_M: f64 = 0.5;
 
-/// Escapes from a pocket per run when no view is left inside it (see [`VolumeViews::escape`]): a
-/// bound on failures, not a tuning knob.
-const MAX_POCKET_ESCAPES: u32 = 2;
-
 /// Added to a view's path cost when its gain is ranked per metre, so that a view at the robot's feet
 /// does not win by its zero cost alone, metres.
 const COST_OFFSET_M: f64 = 1.0;
@@ -215,8 +211,6 @@ pub struct VolumeViews {
     spacing_m: f64,
     /// Floor cells no longer considered (near a view already taken).
     given_up: Vec<bool>,
-    /// Escapes from a pocket so far.
-    escapes: u32,
 }
 
 /// What [`VolumeViews`] reads of the config: its own section, and the gain model's camera, height
@@ -241,15 +235,6 @@ impl From<&Config> for VolumeViewParams {
     }
 }
 
-/// The pocket escapes of `views` as a statistic (absent when none were taken or views are off).
-pub fn escapes_counted(views: &Option<VolumeViews>) -> super::Count {
-    let mut c = super::Count::default();
-    if let Some(n) = views.as_ref().map(VolumeViews::escapes).filter(|&n| n > 0) {
-        c.add(n as f64);
-    }
-    c
-}
-
 /// A volume view: where to drive, and what the model expects to be seen there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeView {
@@ -265,7 +250,6 @@ impl VolumeViews {
             cutoff_m3: p.volume_views.gain_cutoff_m3.get(),
             spacing_m: p.volume_views.spacing_m.get(),
             given_up: Vec::new(),
-            escapes: 0,
         })
     }
 
@@ -306,46 +290,6 @@ impl VolumeViews {
         Some(VolumeView {
             cell: best.1,
             gain_m3: best.2,
-        })
-    }
-
-    /// Pocket escapes taken so far (`planner_stats.volume_view_escapes`).
-    pub fn escapes(&self) -> u32 {
-        self.escapes
-    }
-
-    /// When [`VolumeViews::next`] finds no view: if the robot stands in a pocket of the map (known
-    /// floor outside it that `df` does not reach, because it came in through its blind zone by a
-    /// gap that the obstacles seen since have inflated shut), the way out to the nearest lattice
-    /// cell of that floor ([`super::escape_path`]) as an action, so that the views there are not
-    /// lost; at most [`MAX_POCKET_ESCAPES`] times a run. `None`: the volume is done.
-    pub fn escape(
-        &mut self,
-        ctx: &mut super::PlanContext,
-        start: usize,
-        df: &DistanceField,
-    ) -> Option<super::Action> {
-        if self.escapes >= MAX_POCKET_ESCAPES {
-            return None;
-        }
-        let map = ctx.map;
-        let grid = *map.grid();
-        let s = ((self.spacing_m / grid.res).round() as usize).max(1);
-        let outside: Vec<usize> = (0..grid.cells())
-            .filter(|&i| {
-                let c = grid.cell(i);
-                (c.x as usize).is_multiple_of(s) && (c.y as usize).is_multiple_of(s)
-            })
-            .filter(|&i| map.is_traversable(i) && df.cost_to(i).is_none())
-            .collect();
-        if outside.is_empty() {
-            return None;
-        }
-        let path = super::escape_path(ctx, start, df, &outside, super::ESCAPE_CLEAR_MARGIN_M)?;
-        self.escapes += 1;
-        Some(super::Action::Follow {
-            path,
-            look_on_arrival: true,
         })
     }
 

@@ -12,6 +12,10 @@ pub(super) enum Choice {
     Drive,
 }
 
+/// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
+/// margin), metres.
+pub(super) const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
+
 /// Escapes toward one target cell before the frontier there is given up.
 pub(super) const MAX_ESCAPES: u32 = 2;
 
@@ -136,13 +140,9 @@ impl Thp {
                     if open_frontiers.is_empty() {
                         break;
                     }
-                    let Some(path) = plan::escape_path(
-                        ctx,
-                        start,
-                        df,
-                        &open_frontiers,
-                        plan::ESCAPE_CLEAR_MARGIN_M,
-                    ) else {
+                    let Some(path) =
+                        plan::escape_path(ctx, start, df, &open_frontiers, ESCAPE_CLEAR_MARGIN_M)
+                    else {
                         break;
                     };
                     let target = path
@@ -189,19 +189,12 @@ impl Thp {
                     return Ok(Choice::Drive);
                 }
                 // Then at the unknown volume no frontier shows, if on (shared with GREEDY).
-                if let Some(views) = self.volume_views.as_mut() {
-                    let action = match views.next(map, df) {
-                        Some(view) => {
-                            self.stats.volume_views.add(1.0);
-                            Some(follow_to(&grid, df, view.cell, true).0)
-                        }
-                        None => views.escape(ctx, start, df),
-                    };
-                    if let Some(action) = action {
-                        self.ledger.kind = GoalKind::OutsideTour;
-                        self.mode.stop();
-                        return Ok(Choice::Act(action));
-                    }
+                if let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, df)) {
+                    self.stats.volume_views.add(1.0);
+                    self.ledger.kind = GoalKind::OutsideTour;
+                    self.mode.stop();
+                    let (action, _) = follow_to(&grid, df, view.cell, true);
+                    return Ok(Choice::Act(action));
                 }
                 return Ok(Choice::Act(Action::Complete));
             };

@@ -382,10 +382,6 @@ impl Planner for Thp {
                 ("looks_when_blocked", s.looks_when_blocked),
                 ("distant_views", s.distant_views),
                 ("volume_views", s.volume_views),
-                (
-                    "volume_view_escapes",
-                    super::view_gain::escapes_counted(&self.volume_views),
-                ),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),
             ]
