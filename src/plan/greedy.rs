@@ -34,8 +34,6 @@ pub struct Greedy {
     distant_views: Count,
     /// Views of the unknown volume before `Complete` (`volume_views.enabled`), if on.
     volume_views: Option<VolumeViews>,
-    /// Volume views taken (`planner_stats.volume_views`).
-    volume_views_taken: Count,
 }
 
 impl Greedy {
@@ -50,7 +48,6 @@ impl Greedy {
             rerouted: false,
             distant_views: Count::default(),
             volume_views,
-            volume_views_taken: Count::default(),
         }
     }
 
@@ -125,7 +122,6 @@ impl Greedy {
                     else {
                         return Ok(Action::Complete);
                     };
-                    self.volume_views_taken.add(1.0);
                     let action;
                     (action, self.path_cells) = follow_to(&grid, &df, view.cell, true);
                     return Ok(action);
@@ -193,7 +189,7 @@ impl Planner for Greedy {
     fn stats(&self) -> BTreeMap<String, f64> {
         super::counted([
             ("distant_views", self.distant_views),
-            ("volume_views", self.volume_views_taken),
+            ("volume_views", VolumeViews::taken(&self.volume_views)),
         ])
     }
 

@@ -213,6 +213,8 @@ pub struct VolumeViews {
     spacing_m: f64,
     /// Floor cells no longer considered (near a view already taken).
     given_up: Vec<bool>,
+    /// Views taken (`planner_stats.volume_views`).
+    taken: super::Count,
 }
 
 /// What [`VolumeViews`] reads of the config: its own section, and the gain model's camera, height
@@ -252,6 +254,7 @@ impl VolumeViews {
             cutoff_m3: p.volume_views.gain_cutoff_m3.get(),
             spacing_m: p.volume_views.spacing_m.get(),
             given_up: Vec::new(),
+            taken: super::Count::default(),
         })
     }
 
@@ -264,11 +267,9 @@ impl VolumeViews {
             self.given_up = vec![false; grid.cells()];
         }
         let s = ((self.spacing_m / grid.res).round() as usize).max(1);
-        let candidates: Vec<(f32, usize)> = (0..grid.cells())
-            .filter(|&i| {
-                let c = grid.cell(i);
-                (c.x as usize).is_multiple_of(s) && (c.y as usize).is_multiple_of(s)
-            })
+        let candidates: Vec<(f32, usize)> = (0..grid.ny)
+            .step_by(s)
+            .flat_map(|y| (0..grid.nx).step_by(s).map(move |x| y * grid.nx + x))
             .filter(|&i| !self.given_up[i] && map.is_traversable(i))
             .filter_map(|i| df.cost_to(i).map(|cost| (cost, i)))
             .collect();
@@ -289,10 +290,16 @@ impl VolumeViews {
             .map(|(&(cost, cell), &g)| (g / (cost as f64 + COST_OFFSET_M), cell, g))
             .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))?;
         self.take(&grid, best.1);
+        self.taken.add(1.0);
         Some(VolumeView {
             cell: best.1,
             gain_m3: best.2,
         })
+    }
+
+    /// The `volume_views` statistic of `views` (absent when views are off or none was taken).
+    pub fn taken(views: &Option<VolumeViews>) -> super::Count {
+        views.as_ref().map(|v| v.taken).unwrap_or_default()
     }
 
     /// Marks the cells within [`VIEW_GIVE_UP_M`] of `cell` as taken.
@@ -371,28 +378,8 @@ mod tests {
         };
         let g = model.evaluate(&map, Point2::new(0.0, 0.0));
         assert!(g.volume_m3 > cfg.nbv.gain_cutoff_m3, "{}", g.volume_m3);
-        // An empty floor scanned all around from the centre: nothing unknown is left nearby.
-        let mut mesh = TriMesh::default();
-        push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
-        for (lo, hi) in [
-            ([-2.0, -2.1, 0.0], [2.0, -2.0, 2.0]),
-            ([-2.0, 2.0, 0.0], [2.0, 2.1, 2.0]),
-            ([-2.1, -2.1, 0.0], [-2.0, 2.1, 2.0]),
-            ([2.0, -2.1, 0.0], [2.1, 2.1, 2.0]),
-        ] {
-            push_box(&mut mesh, lo, hi);
-        }
-        let bvh = MeshBvh::new(&mesh).unwrap();
-        let map = seen_from(
-            grid,
-            &cfg,
-            &bvh,
-            (0..64).map(|i| {
-                let yaw = i as f64 * TAU / 32.0;
-                let r = if i < 32 { 0.0 } else { 1.0 };
-                Pose2::new(r * yaw.cos(), r * yaw.sin(), yaw)
-            }),
-        );
+        // An empty 4 × 4 m room scanned all around from the centre: nothing unknown is left nearby.
+        let map = scanned_room(&cfg, grid, 2.0, 2.0);
         let closed = model.evaluate(&map, Point2::new(0.0, 0.0));
         assert!(
             closed.volume_m3 < 0.1 * g.volume_m3,
@@ -439,22 +426,21 @@ mod tests {
         }
     }
 
-    /// A 6 × 4 m walled room scanned only from its centre, where the top of the band near the
-    /// far walls stays unknown; with the robot's distance field over the known floor.
-    fn half_scanned_room(cfg: &Config) -> (Map, DistanceField) {
-        let grid = floor_grid(cfg, 5.0);
+    /// A walled room of half extents `hx` × `hy` (2 m tall walls, 0.1 m thick) on a wide floor,
+    /// scanned all around from its centre and from a 1 m circle about it.
+    fn scanned_room(cfg: &Config, grid: GridSpec, hx: f32, hy: f32) -> Map {
         let mut mesh = TriMesh::default();
         push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
         for (lo, hi) in [
-            ([-3.0, -2.1, 0.0], [3.0, -2.0, 2.0]),
-            ([-3.0, 2.0, 0.0], [3.0, 2.1, 2.0]),
-            ([-3.1, -2.1, 0.0], [-3.0, 2.1, 2.0]),
-            ([3.0, -2.1, 0.0], [3.1, 2.1, 2.0]),
+            ([-hx, -hy - 0.1, 0.0], [hx, -hy, 2.0]),
+            ([-hx, hy, 0.0], [hx, hy + 0.1, 2.0]),
+            ([-hx - 0.1, -hy - 0.1, 0.0], [-hx, hy + 0.1, 2.0]),
+            ([hx, -hy - 0.1, 0.0], [hx + 0.1, hy + 0.1, 2.0]),
         ] {
             push_box(&mut mesh, lo, hi);
         }
         let bvh = MeshBvh::new(&mesh).unwrap();
-        let map = seen_from(
+        seen_from(
             grid,
             cfg,
             &bvh,
@@ -463,7 +449,15 @@ mod tests {
                 let r = if i < 32 { 0.0 } else { 1.0 };
                 Pose2::new(r * yaw.cos(), r * yaw.sin(), yaw)
             }),
-        );
+        )
+    }
+
+    /// A 6 × 4 m room scanned from near its centre ([`scanned_room`]): the top of the band near the
+    /// far walls stays unknown (seen only from 2.9 m away). With the robot's distance field over the
+    /// known floor.
+    fn half_scanned_room(cfg: &Config) -> (Map, DistanceField) {
+        let grid = floor_grid(cfg, 5.0);
+        let map = scanned_room(cfg, grid, 3.0, 2.0);
         // The known floor cell nearest the centre (the camera never saw the floor underfoot).
         let start = (0..grid.cells())
             .filter(|&i| map.is_traversable(i))

@@ -190,7 +190,6 @@ impl Thp {
                 }
                 // Then at the unknown volume no frontier shows, if on (shared with GREEDY).
                 if let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, df)) {
-                    self.stats.volume_views.add(1.0);
                     self.ledger.kind = GoalKind::OutsideTour;
                     self.mode.stop();
                     let (action, _) = follow_to(&grid, df, view.cell, true);

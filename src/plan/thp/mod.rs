@@ -179,7 +179,6 @@ struct ThpStats {
     advection_stalls: Count,
     looks_when_blocked: Count,
     distant_views: Count,
-    volume_views: Count,
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
     /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
@@ -382,7 +381,7 @@ impl Planner for Thp {
                 ("advection_stalls", s.advection_stalls),
                 ("looks_when_blocked", s.looks_when_blocked),
                 ("distant_views", s.distant_views),
-                ("volume_views", s.volume_views),
+                ("volume_views", VolumeViews::taken(&self.volume_views)),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),
             ]
