@@ -296,12 +296,14 @@ impl Occupancy {
         while self.passed.len() < tasks {
             self.passed.push(vec![0; words]);
         }
-        // Traverse: task k takes rays [k n / tasks, (k + 1) n / tasks).
+        // Traverse: task k takes every tasks-th ray from ray k. Interleaved rather than in blocks,
+        // because rays are in image order and the lower rows end on the floor soon while the upper ones
+        // run far: blocks of rows would leave one task most of the work.
         self.passed
             .par_iter_mut()
             .enumerate()
             .for_each(|(k, bits)| {
-                for i in k * n / tasks..(k + 1) * n / tasks {
+                for i in (k..n).step_by(tasks) {
                     let range = frame.range[i];
                     if range.is_nan() {
                         continue;
