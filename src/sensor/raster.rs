@@ -346,12 +346,16 @@ impl MeshRaster {
     ) {
         let (w, h) = (cam.width, cam.height);
         debug_assert_eq!(dirs.len(), w * h);
-        let mut list = self.gather(cam, origin, (cos, sin));
+        let list = self.gather(cam, origin, (cos, sin));
         // Front to back: near surfaces fill the z-buffer before the ones behind them are tested.
-        // Stable: a hit at ±0 comes only from an unbounded triangle (bound -∞), and the first of
-        // those in gather order must keep the sign of its zero, as it does in the reference.
-        list.sort_by(|a, b| a.near.total_cmp(&b.near));
-        let list: &[Setup] = &list;
+        // Ties in gather order: a hit at ±0 comes only from an unbounded triangle (bound -∞), and
+        // the first of those in gather order must keep the sign of its zero, as in the reference.
+        let mut order: Vec<(f32, u32)> = (list.iter().enumerate())
+            .map(|(i, s)| (s.near, i as u32))
+            .collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let order: Vec<&Setup> = order.iter().map(|&(_, i)| &list[i as usize]).collect();
+        let list: &[&Setup] = &order;
         // Rays and z-buffer in rows padded to whole tiles, the rays' coordinates in separate arrays:
         // the ray test then runs on a tile row's pixels at once. Padding rays are zero (no hit) and
         // padding depths zero (they never raise a tile's maximum).
@@ -645,7 +649,7 @@ impl Tiles {
 /// image, rows of `stride`). A triangle whose near bound is at least every depth in a tile cannot win
 /// a pixel there (its test returns no less than the bound, and a pixel keeps only a strictly nearer
 /// hit), so that tile is skipped.
-fn fill_band(list: &[Setup], rays: &[Vec<f32>; 3], stride: usize, r0: usize, band: &mut [f32]) {
+fn fill_band(list: &[&Setup], rays: &[Vec<f32>; 3], stride: usize, r0: usize, band: &mut [f32]) {
     let r1 = r0 + band.len() / stride; // exclusive
     let mut tiles = Tiles::new(stride, r1 - r0);
     // Tiles the current triangle lowered, marked for recomputation once it is done: until then their
