@@ -9,11 +9,19 @@
 //! Möller–Trumbore test along *its own ray* (the same unit direction the ray caster uses), and the
 //! z-buffer keeps the nearest hit. Coverage and depth are decided by the caster's own per-triangle
 //! arithmetic (the terms that do not depend on the ray are hoisted, which changes no bit), so a
-//! pixel's depth is the minimum over the triangles of exactly the caster's test. Measured against
-//! [`super::MeshBvh::cast`] (`tests/raster_vs_raycast.rs`, every shipped scene and four real plans):
-//! about 0.1% of pixels differ by a few ulps (the BVH's box pruning can keep a hit an ulp farther
-//! than the minimum where faces overlap), and a handful of rays grazing an edge, or a face seen
-//! edge-on, differ by more: silhouettes.
+//! pixel's depth is the minimum over the triangles of exactly the caster's test.
+//!
+//! Occlusion culling skips only tests that cannot change a pixel, so frames are bit for bit those of
+//! testing every triangle on its whole span (the `#[cfg(test)]` reference): each triangle gets a
+//! proven lower bound on any distance its test can return, rounding included
+//! ([`MeshRaster::near_bound`]); triangles are filled in order of that bound, and a tile of 8 × 8
+//! pixels whose largest depth is already at or below it is skipped (hidden walls behind walls). The
+//! test runs on a tile row's eight pixels at once, branch-free, with the rays in coordinate arrays.
+//!
+//! Measured against [`super::MeshBvh::cast`] (`tests/raster_vs_raycast.rs`, every shipped scene and
+//! four real plans): about 0.1% of pixels differ by a few ulps (the BVH's box pruning can keep a hit
+//! an ulp farther than the minimum where faces overlap), and a handful of rays grazing an edge, or a
+//! face seen edge-on, differ by more: silhouettes.
 //!
 //! A z-buffer of ray distances (not of z-depth) makes the range rule the caster's: no hit within the
 //! maximum range → `f32::INFINITY`; a nearest hit nearer than the minimum range → `NaN`.
@@ -31,8 +39,12 @@ const BIN_M: f32 = 1.0;
 /// surface nearer than this is not rendered; the caster would report it as too near (NaN) anyway,
 /// but could then differ from the rasteriser on what lies behind it.
 const NEAR_M: f32 = 1e-5;
-/// Pixels per rayon task when filling the z-buffer (whole rows).
+/// Pixels per rayon task when filling the z-buffer (whole rows, rounded down to whole tiles).
 const PIXELS_PER_TASK: usize = 2048;
+/// Edge of a z-buffer tile, pixels: the unit of occlusion culling.
+const TILE: usize = 8;
+/// Unit roundoff of `f32`.
+const U: f64 = f32::EPSILON as f64 * 0.5;
 
 /// The scene mesh prepared for rendering: triangles in the ray-test form and binned on the floor plane.
 pub struct MeshRaster {
@@ -40,6 +52,8 @@ pub struct MeshRaster {
     corners: Vec<[PVector; 3]>,
     /// Per triangle: first vertex and the two edges from it, computed as `MeshBvh` computes them.
     tris: Vec<[PVector; 3]>,
+    /// Per triangle: what [`MeshRaster::near_bound`] needs that does not depend on the camera.
+    shape: Vec<Shape>,
     /// Per triangle: the lowest bin (x, y) it overlaps.
     first_bin: Vec<[u32; 2]>,
     /// Lower-left corner of bin (0, 0), metres.
@@ -49,6 +63,47 @@ pub struct MeshRaster {
     /// Compressed rows: the triangles of bin `b` are `bin_tris[bin_start[b]..bin_start[b + 1]]`.
     bin_start: Vec<u32>,
     bin_tris: Vec<u32>,
+}
+
+/// A triangle's shape in `f64`, from its ray-test form `(v0, e1, e2)`.
+#[derive(Clone, Copy)]
+struct Shape {
+    /// Unit normal `e1 × e2 / |e1 × e2|` (zero for a degenerate triangle).
+    normal: [f64; 3],
+    /// `|e1|`, `|e2|`.
+    a: f64,
+    b: f64,
+    /// Sine of the angle between `e1` and `e2` (zero for a degenerate triangle).
+    sin: f64,
+    /// Bounding box of the corners.
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl Shape {
+    fn new(corners: &[PVector; 3], [_, e1, e2]: &[PVector; 3]) -> Shape {
+        let f = |v: &PVector| [v.x as f64, v.y as f64, v.z as f64];
+        let (e1, e2) = (f(e1), f(e2));
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let (len, a, b) = (norm(n), norm(e1), norm(e2));
+        let ok = len > 0.0 && len.is_finite();
+        let c = corners.map(|p| f(&p));
+        let lo = std::array::from_fn(|k| c[0][k].min(c[1][k]).min(c[2][k]));
+        let hi = std::array::from_fn(|k| c[0][k].max(c[1][k]).max(c[2][k]));
+        Shape {
+            normal: if ok { n.map(|x| x / len) } else { [0.0; 3] },
+            a,
+            b,
+            sin: if ok { len / (a * b) } else { 0.0 },
+            lo,
+            hi,
+        }
+    }
 }
 
 /// The camera's intrinsics as the rasteriser needs them.
@@ -77,9 +132,74 @@ struct Setup {
     /// the near plane projects far outside the image, and f32 would lose whole pixels there.
     poly: [[f64; 2]; 4],
     n: usize,
+    /// A lower bound on every distance the ray test can return for this triangle on an accepted
+    /// hit, rounding included (see [`MeshRaster::near_bound`]); `-∞` where none is proven.
+    near: f32,
 }
 
 impl Setup {
+    /// The ray test on the pixels `lo..=hi` of one tile row (rays and depths `x`, `y`, `z`, `depth`),
+    /// lowering each depth its hit beats; whether any was. The same operations as [`Setup::test`],
+    /// written branch-free over the lanes so that they are computed side by side.
+    #[inline(always)]
+    // `!(det.abs() < 1e-12)` as the caster writes it (a NaN passes), not `>=`.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn test_lanes(
+        &self,
+        [x, y, z]: [&[f32; TILE]; 3],
+        depth: &mut [f32; TILE],
+        lo: usize,
+        hi: usize,
+    ) -> bool {
+        let (e1, e2, s, q) = (self.e1, self.e2, self.s, self.q);
+        let mut changed = false;
+        for k in 0..TILE {
+            let (dx, dy, dz) = (x[k], y[k], z[k]);
+            // d × e2 and the dot products as glam's `cross` and `dot` compute them.
+            let px = dy * e2.z - e2.y * dz;
+            let py = dz * e2.x - e2.z * dx;
+            let pz = dx * e2.y - e2.x * dy;
+            let det = (e1.x * px) + (e1.y * py) + (e1.z * pz);
+            let inv = 1.0 / det;
+            let u = ((s.x * px) + (s.y * py) + (s.z * pz)) * inv;
+            let v = ((dx * q.x) + (dy * q.y) + (dz * q.z)) * inv;
+            let t = self.tq * inv;
+            let hit = !(det.abs() < 1e-12)
+                & (0.0..=1.0).contains(&u)
+                & !((v < 0.0) | (u + v > 1.0))
+                & (t >= 0.0)
+                & (t < depth[k])
+                & (k >= lo)
+                & (k <= hi);
+            depth[k] = if hit { t } else { depth[k] };
+            changed |= hit;
+        }
+        changed
+    }
+
+    /// The ray test along the unit ray `d`: its distance if it hits nearer than `z`. Möller–Trumbore
+    /// as `raycast::ray_triangle`, operation for operation.
+    #[cfg(test)]
+    fn test(&self, d: Vector3<f32>, z: f32) -> Option<f32> {
+        let d = PVector::new(d.x, d.y, d.z);
+        let p = d.cross(self.e2);
+        let det = self.e1.dot(p);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let u = self.s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let v = d.dot(self.q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        let t = self.tq * inv;
+        (t >= 0.0 && t < z).then_some(t)
+    }
+
     /// The columns of row `row` to test: the polygon's extent within the strip of rows
     /// `row ± 1`, grown by a pixel (the slack absorbs the projection's rounding; the ray test
     /// decides), clipped to the triangle's column range.
@@ -121,7 +241,12 @@ impl MeshRaster {
             .iter()
             .map(|t| [v(t[0]), v(t[1]), v(t[2])])
             .collect();
-        let tris = corners.iter().map(|&[a, b, c]| [a, b - a, c - a]).collect();
+        let tris: Vec<[PVector; 3]> = corners.iter().map(|&[a, b, c]| [a, b - a, c - a]).collect();
+        let shape = corners
+            .iter()
+            .zip(&tris)
+            .map(|(c, t)| Shape::new(c, t))
+            .collect();
         let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
         for p in corners.iter().flatten() {
             lo = [lo[0].min(p.x), lo[1].min(p.y)];
@@ -137,6 +262,7 @@ impl MeshRaster {
         let mut raster = MeshRaster {
             corners,
             tris,
+            shape,
             first_bin: Vec::new(),
             bin_origin: lo,
             bins,
@@ -206,8 +332,10 @@ impl MeshRaster {
     /// Renders ray distances into `range` (row-major, `cam.width × cam.height`) for the pixel rays
     /// `dirs` (unit, world frame) from `origin`, looking along the horizontal unit axis `(cos, sin)`.
     /// Writes the nearest hit distance below `cam.max_range`, or `cam.max_range` where there is none
-    /// (the caller applies the range rule). Triangles are set up in order and each z-buffer row band
-    /// is filled by one task; the minimum does not depend on the order, so neither does the frame.
+    /// (the caller applies the range rule). Triangles are filled nearest bound first, and each
+    /// z-buffer row band by one task; a pixel's value is the minimum over the same tests whatever the
+    /// order and the culling (which skips only tests that cannot lower it), so the frame depends on
+    /// neither.
     pub fn render_ranges(
         &self,
         cam: &RasterCamera,
@@ -218,7 +346,48 @@ impl MeshRaster {
     ) {
         let (w, h) = (cam.width, cam.height);
         debug_assert_eq!(dirs.len(), w * h);
-        range.fill(cam.max_range);
+        let list = self.gather(cam, origin, (cos, sin));
+        // Front to back: near surfaces fill the z-buffer before the ones behind them are tested.
+        // Ties in gather order: a hit at ±0 comes only from an unbounded triangle (bound -∞), and
+        // the first of those in gather order must keep the sign of its zero, as in the reference.
+        let mut order: Vec<(f32, u32)> = (list.iter().enumerate())
+            .map(|(i, s)| (s.near, i as u32))
+            .collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let order: Vec<&Setup> = order.iter().map(|&(_, i)| &list[i as usize]).collect();
+        let list: &[&Setup] = &order;
+        // Rays and z-buffer in rows padded to whole tiles, the rays' coordinates in separate arrays:
+        // the ray test then runs on a tile row's pixels at once. Padding rays are zero (no hit) and
+        // padding depths zero (they never raise a tile's maximum).
+        let stride = w.div_ceil(TILE) * TILE;
+        let mut rays = [
+            vec![0.0f32; h * stride],
+            vec![0.0; h * stride],
+            vec![0.0; h * stride],
+        ];
+        let mut zbuf = vec![0.0f32; h * stride];
+        for row in 0..h {
+            let (src, dst) = (&dirs[row * w..][..w], row * stride);
+            for (k, d) in src.iter().enumerate() {
+                rays[0][dst + k] = d.x;
+                rays[1][dst + k] = d.y;
+                rays[2][dst + k] = d.z;
+            }
+            zbuf[dst..dst + w].fill(cam.max_range);
+        }
+        let rows_per_task = (PIXELS_PER_TASK / stride / TILE * TILE).max(TILE);
+        zbuf.par_chunks_mut(rows_per_task * stride)
+            .enumerate()
+            .for_each(|(task, band)| {
+                fill_band(list, &rays, stride, task * rows_per_task, band);
+            });
+        for (out, z) in range.chunks_exact_mut(w).zip(zbuf.chunks_exact(stride)) {
+            out.copy_from_slice(&z[..w]);
+        }
+    }
+
+    /// The fill setups of the triangles in the frustum, in bin order.
+    fn gather(&self, cam: &RasterCamera, origin: PVector, (cos, sin): (f32, f32)) -> Vec<Setup> {
         let mut list = Vec::with_capacity(256);
         let [qx, qy] = self.query_bins(origin, (cos, sin), cam);
         for by in qy[0]..=qy[1] {
@@ -238,48 +407,35 @@ impl MeshRaster {
                 }
             }
         }
-        let list: &[Setup] = &list;
-        let rows_per_task = (PIXELS_PER_TASK / w).max(1);
-        range
-            .par_chunks_mut(rows_per_task * w)
-            .enumerate()
-            .for_each(|(task, band)| {
-                let r0 = task * rows_per_task;
-                let r1 = r0 + band.len() / w; // exclusive
-                for s in list {
-                    let (a, b) = (s.rows[0].max(r0), (s.rows[1] + 1).min(r1));
-                    for row in a..b {
-                        let base = row * w;
-                        let Some([c0, c1]) = s.row_cols(row) else {
-                            continue;
-                        };
-                        for col in c0..=c1 {
-                            let d = dirs[base + col];
-                            let d = PVector::new(d.x, d.y, d.z);
-                            let z = &mut band[base - r0 * w + col];
-                            // Möller–Trumbore as `raycast::ray_triangle`, operation for operation.
-                            let p = d.cross(s.e2);
-                            let det = s.e1.dot(p);
-                            if det.abs() < 1e-12 {
-                                continue;
-                            }
-                            let inv = 1.0 / det;
-                            let u = s.s.dot(p) * inv;
-                            if !(0.0..=1.0).contains(&u) {
-                                continue;
-                            }
-                            let v = d.dot(s.q) * inv;
-                            if v < 0.0 || u + v > 1.0 {
-                                continue;
-                            }
-                            let t = s.tq * inv;
-                            if t >= 0.0 && t < *z {
-                                *z = t;
-                            }
-                        }
+        list
+    }
+
+    /// The renderer without occlusion culling, as it was before culling: every gathered triangle
+    /// tested on every pixel of its spans. The reference the culled renderer must equal bit for bit.
+    #[cfg(test)]
+    fn render_ranges_reference(
+        &self,
+        cam: &RasterCamera,
+        origin: PVector,
+        (cos, sin): (f32, f32),
+        dirs: &[Vector3<f32>],
+        range: &mut [f32],
+    ) {
+        let w = cam.width;
+        range.fill(cam.max_range);
+        for s in &self.gather(cam, origin, (cos, sin)) {
+            for row in s.rows[0]..=s.rows[1] {
+                let Some([c0, c1]) = s.row_cols(row) else {
+                    continue;
+                };
+                for col in c0..=c1 {
+                    let i = row * w + col;
+                    if let Some(t) = s.test(dirs[i], range[i]) {
+                        range[i] = t;
                     }
                 }
-            });
+            }
+        }
     }
 
     /// The bins (x range, y range, inclusive) that the frustum's floor footprint overlaps: the
@@ -394,6 +550,7 @@ impl MeshRaster {
         let s = o - v0;
         let q = s.cross(e1);
         Some(Setup {
+            near: self.near_bound(t, o, cam.max_range),
             s,
             q,
             e1,
@@ -404,5 +561,281 @@ impl MeshRaster {
             poly: proj,
             n,
         })
+    }
+
+    /// A lower bound on the distance the ray test of triangle `t` returns on any hit from `o` that
+    /// could be nearer than `range`, rounding included; `-∞` where none is proven.
+    ///
+    /// Exactly, a hit lies in the triangle, so at least as far as its bounding box. The test's `f32`
+    /// products err by a few roundoffs of `|e1||e2|` (and `|s|` times that), against a determinant
+    /// of `|e1 × e2| h / t` for a hit at `t`, `h` the distance from `o` to the triangle's plane: so
+    /// the returned distance is off by a relative `ρ` and the accepted point may lie outside the
+    /// triangle by `η`, both below. The constants are eight times the worst case; a triangle seen
+    /// edge-on from near its plane, or a sliver, gets no bound (it is always tested).
+    fn near_bound(&self, t: usize, o: PVector, range: f32) -> f32 {
+        let sh = &self.shape[t];
+        let v0 = self.tris[t][0];
+        let o = [o.x as f64, o.y as f64, o.z as f64];
+        let s = [o[0] - v0.x as f64, o[1] - v0.y as f64, o[2] - v0.z as f64];
+        let sigma = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+        let h = (sh.normal[0] * s[0] + sh.normal[1] * s[1] + sh.normal[2] * s[2]).abs();
+        let (a, b, r) = (sh.a, sh.b, range as f64);
+        // `s` is rounded to f32 in the test: the plane distance it sees is within 2uσ of `h`.
+        let hs = (h - 2.0 * U * sigma) * sh.sin;
+        let rho = 64.0 * U * (sigma + 2.0 * r) / hs + 8.0 * U;
+        // Error of the barycentrics (u and v together) of a hit within 2 × range.
+        let bary = 128.0 * U * r * (sigma / a + sigma / b + 4.0) / hs + 8.0 * U;
+        if !(hs > 0.0 && rho < 0.1 && bary < 0.1) {
+            return f32::NEG_INFINITY;
+        }
+        // The edges and `s` are rounded to f32 too: a few more roundoffs of their lengths.
+        let eta = bary * (a + b) + 2.0 * U * (a + b) + 4.0 * U * sigma;
+        let mut d2 = 0.0;
+        for ((lo, hi), o) in sh.lo.iter().zip(&sh.hi).zip(o) {
+            let e = (lo - o).max(o - hi).max(0.0);
+            d2 += e * e;
+        }
+        let x = (d2.sqrt() - eta) * (1.0 - rho);
+        // Shrunk by more than the cast's rounding, so the f32 stays below `x`.
+        if x > 0.0 {
+            (x * (1.0 - 1e-6)) as f32
+        } else {
+            f32::NEG_INFINITY
+        }
+    }
+}
+
+/// The z-buffer's tile maxima for one row band, recomputed lazily after a tile's pixels change.
+struct Tiles {
+    max: Vec<f32>,
+    dirty: Vec<bool>,
+    /// Tiles per row.
+    across: usize,
+}
+
+impl Tiles {
+    fn new(w: usize, rows: usize) -> Tiles {
+        let across = w.div_ceil(TILE);
+        let n = across * rows.div_ceil(TILE);
+        Tiles {
+            max: vec![0.0; n],
+            dirty: vec![true; n],
+            across,
+        }
+    }
+
+    /// The largest value in tile `(ty, tx)` of `band` (`w` pixels a row).
+    #[inline]
+    fn max(&mut self, band: &[f32], w: usize, ty: usize, tx: usize) -> f32 {
+        let k = ty * self.across + tx;
+        if self.dirty[k] {
+            let rows = band.len() / w;
+            let (c0, c1) = (tx * TILE, (tx * TILE + TILE).min(w));
+            let mut m = f32::NEG_INFINITY;
+            for row in ty * TILE..(ty * TILE + TILE).min(rows) {
+                for &z in &band[row * w + c0..row * w + c1] {
+                    m = m.max(z);
+                }
+            }
+            self.max[k] = m;
+            self.dirty[k] = false;
+        }
+        self.max[k]
+    }
+}
+
+/// Fills the z-buffer rows `r0..` held in `band` (`stride` pixels a row, a multiple of [`TILE`])
+/// with the triangles of `list`, in order, for the pixel rays `rays` (coordinate arrays of the whole
+/// image, rows of `stride`). A triangle whose near bound is at least every depth in a tile cannot win
+/// a pixel there (its test returns no less than the bound, and a pixel keeps only a strictly nearer
+/// hit), so that tile is skipped.
+fn fill_band(list: &[&Setup], rays: &[Vec<f32>; 3], stride: usize, r0: usize, band: &mut [f32]) {
+    let r1 = r0 + band.len() / stride; // exclusive
+    let mut tiles = Tiles::new(stride, r1 - r0);
+    // Tiles the current triangle lowered, marked for recomputation once it is done: until then their
+    // stale maxima are upper bounds, which keeps the culling conservative, and are not recomputed
+    // row after row.
+    let mut changed_tiles = Vec::new();
+    for s in list {
+        for k in changed_tiles.drain(..) {
+            tiles.dirty[k] = true;
+        }
+        let (a, b) = (s.rows[0].max(r0), (s.rows[1] + 1).min(r1));
+        if a >= b {
+            continue;
+        }
+        let culls = s.near > f32::NEG_INFINITY;
+        let (tx0, tx1) = (s.cols[0] / TILE, s.cols[1] / TILE);
+        if culls {
+            let (ty0, ty1) = ((a - r0) / TILE, (b - 1 - r0) / TILE);
+            let hidden = (ty0..=ty1)
+                .all(|ty| (tx0..=tx1).all(|tx| tiles.max(band, stride, ty, tx) <= s.near));
+            if hidden {
+                continue;
+            }
+        }
+        for row in a..b {
+            let Some([c0, c1]) = s.row_cols(row) else {
+                continue;
+            };
+            let ty = (row - r0) / TILE;
+            for tx in c0 / TILE..=c1 / TILE {
+                if culls && tiles.max(band, stride, ty, tx) <= s.near {
+                    continue;
+                }
+                let at = tx * TILE;
+                let i = row * stride + at;
+                let lanes = |k: usize| -> &[f32; TILE] { rays[k][i..i + TILE].try_into().unwrap() };
+                let ray = [lanes(0), lanes(1), lanes(2)];
+                let depth = (&mut band[(row - r0) * stride + at..][..TILE])
+                    .try_into()
+                    .unwrap();
+                let (lo, hi) = (c0.max(at) - at, c1.min(at + TILE - 1) - at);
+                if s.test_lanes(ray, depth, lo, hi) {
+                    changed_tiles.push(ty * tiles.across + tx);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::sensor::DepthCamera;
+    use crate::Pose2;
+    use rand::{Rng, SeedableRng};
+    use std::path::Path;
+
+    /// Frames of `path` from `n` poses anywhere in its bounds (inside walls too), every third one
+    /// snapped to a 5 cm grid and a right-angle heading (rays in faces' planes, origins on them).
+    fn compare_scene(path: &Path, n: usize, sizes: &[(usize, usize)], seed: u64) -> usize {
+        let cfg = Config::default();
+        let scene = crate::scene::load(path, &cfg.scene).unwrap();
+        let raster = MeshRaster::new(&scene.mesh).unwrap();
+        let (lo, hi) = scene.mesh.bounds().unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut pixels = 0;
+        for &(w, h) in sizes {
+            let mut cc = cfg.camera.clone();
+            (cc.width, cc.height) = (w, h);
+            let camera = DepthCamera::new(&cc);
+            let cam = RasterCamera {
+                width: w,
+                height: h,
+                tan_h: (cc.hfov_deg.to_radians() / 2.0).tan() as f32,
+                tan_v: (cc.vfov_deg.to_radians() / 2.0).tan() as f32,
+                max_range: cc.max_range_m.get() as f32,
+            };
+            let (mut got, mut want) = (vec![0.0; w * h], vec![0.0; w * h]);
+            for i in 0..n {
+                let (mut x, mut y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
+                let mut yaw = rng.random_range(-3.2..3.2);
+                if i % 3 == 0 {
+                    (x, y) = ((x * 20.0).round() / 20.0, (y * 20.0).round() / 20.0);
+                    yaw = rng.random_range(-2..=2) as f64 * std::f64::consts::FRAC_PI_2;
+                }
+                let frame = camera.render(&raster, Pose2::new(x, y, yaw));
+                let o = frame.origin;
+                let o = PVector::new(o.x, o.y, o.z);
+                let axis = (frame.axis.x, frame.axis.y);
+                raster.render_ranges(&cam, o, axis, &frame.dirs, &mut got);
+                raster.render_ranges_reference(&cam, o, axis, &frame.dirs, &mut want);
+                for (k, (a, b)) in got.iter().zip(&want).enumerate() {
+                    assert!(
+                        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                        "{}: pixel {k} of {w}x{h} at ({x}, {y}, {yaw}): {a} vs {b}",
+                        scene.name
+                    );
+                }
+                pixels += w * h;
+            }
+        }
+        pixels
+    }
+
+    #[test]
+    fn culled_frames_equal_the_unculled_reference_bit_for_bit() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut scenes: Vec<_> = std::fs::read_dir(root.join("scenes"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "obj"))
+            .collect();
+        scenes.sort();
+        assert!(scenes.len() >= 8);
+        for plan in ["052ce6767b", "807c123f55", "82a81996b5"] {
+            scenes.push(root.join(format!("scenes/floorplans/plan_{plan}.obj")));
+        }
+        // Both thread counts: the bands are filled by different tasks, the frame must not change.
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                for (k, path) in scenes.iter().enumerate() {
+                    let pixels = compare_scene(path, 120, &[(80, 60), (173, 41)], k as u64);
+                    assert!(pixels > 0);
+                }
+            });
+        }
+        let office = root.join("scenes/office_large.obj");
+        compare_scene(&office, 4, &[(640, 480)], 99);
+    }
+
+    #[test]
+    fn near_bounds_hold_for_every_pixel_and_are_tight_on_walls() {
+        // Two walls one behind the other: the faces are bounded at their true distances, less a
+        // hair of slack, so the far wall is culled behind the near one.
+        let mut mesh = TriMesh::default();
+        super::super::raycast::testing::push_box(&mut mesh, [2.0, -5.0, 0.0], [2.1, 5.0, 3.0]);
+        super::super::raycast::testing::push_box(&mut mesh, [4.0, -5.0, 0.0], [4.1, 5.0, 3.0]);
+        let cam = RasterCamera {
+            width: 80,
+            height: 60,
+            tan_h: 0.55,
+            tan_v: 0.41,
+            max_range: 5.0,
+        };
+        let raster = MeshRaster::new(&mesh).unwrap();
+        let near: Vec<f32> = (raster.gather(&cam, PVector::new(0.0, 0.0, 0.6), (1.0, 0.0)))
+            .iter()
+            .map(|s| s.near)
+            .collect();
+        assert!(near.iter().any(|&b| (1.99..2.0).contains(&b)), "{near:?}");
+        assert!(near.iter().any(|&b| (3.99..4.0).contains(&b)), "{near:?}");
+        // On real scenes, every pixel ray (not only those of the triangle's spans) that the test
+        // accepts returns at least the bound.
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let cfg = Config::default();
+        let camera = DepthCamera::new(&cfg.camera);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let (mut bounded, mut hits) = (0, 0);
+        for name in ["office_large", "small_house", "floorplans/plan_807c123f55"] {
+            let scene = crate::scene::load(&root.join(format!("scenes/{name}.obj")), &cfg.scene);
+            let scene = scene.unwrap();
+            let raster = MeshRaster::new(&scene.mesh).unwrap();
+            let (lo, hi) = scene.mesh.bounds().unwrap();
+            for _ in 0..20 {
+                let (x, y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
+                let frame = camera.render(&raster, Pose2::new(x, y, rng.random_range(-3.2..3.2)));
+                let o = PVector::new(frame.origin.x, frame.origin.y, frame.origin.z);
+                for s in raster.gather(&cam, o, (frame.axis.x, frame.axis.y)) {
+                    bounded += usize::from(s.near > 0.0);
+                    for &d in &frame.dirs {
+                        if let Some(t) = s.test(d, f32::INFINITY) {
+                            hits += 1;
+                            assert!(t >= s.near, "{name}: hit at {t} below the bound {}", s.near);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            bounded > 1000 && hits > 10000,
+            "{bounded} bounded, {hits} hits"
+        );
     }
 }
