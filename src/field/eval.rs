@@ -476,6 +476,50 @@ impl FieldLevel {
         self.recompute(&tiles)
     }
 
+    /// Recomputes the changed tiles with a cell centre within `r` of `p` (what a reader of that disc
+    /// needs; the rest stay pending); returns how many cells it evaluated.
+    pub fn refresh_near(&mut self, p: Point2<f64>, r: f64) -> usize {
+        let tiles: Vec<usize> = (0..self.dirty.len())
+            .filter(|&t| self.dirty[t] && self.tile_reaches(t, p, r))
+            .collect();
+        self.recompute(&tiles)
+    }
+
+    /// Whether no changed tile has a cell centre within `r` of `p`.
+    pub fn is_fresh_near(&self, p: Point2<f64>, r: f64) -> bool {
+        !(0..self.dirty.len()).any(|t| self.dirty[t] && self.tile_reaches(t, p, r))
+    }
+
+    /// Whether some tile waits for a refresh.
+    pub fn is_stale(&self) -> bool {
+        self.dirty.iter().any(|&d| d)
+    }
+
+    /// Whether tile `t` may hold a cell centre within `r` of `p` (its centres lie within its
+    /// half-diagonal of its centre).
+    fn tile_reaches(&self, t: usize, p: Point2<f64>, r: f64) -> bool {
+        let (centre, half) = self.tile_center_and_half(t);
+        (centre - p).norm() <= r + half
+    }
+
+    /// The grid a [`FieldLevel::refresh`] would leave, computed without changing the level (for
+    /// readers holding only `&self`).
+    pub fn refreshed_grid(&self) -> FieldGrid {
+        let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
+        let outs: Vec<TileOut> = tiles
+            .par_iter()
+            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
+            .collect();
+        let mut grid = self.grid.clone();
+        for out in outs {
+            for (i, ab, w) in out.values {
+                grid.ab[i] = ab;
+                grid.weight[i] = w;
+            }
+        }
+        grid
+    }
+
     /// Recomputes every tile (the "full recompute" of the bench).
     pub fn recompute_all(&mut self) -> usize {
         let tiles: Vec<usize> = (0..self.dirty.len()).collect();

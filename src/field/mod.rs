@@ -168,6 +168,10 @@ pub struct TensorField {
     sampler: SurfaceSampler,
     main: FieldLevel,
     topo: Option<FieldLevel>,
+    /// Leave the planning field's changed tiles pending until read ([`TensorField::set_lazy_planning_field`]).
+    lazy_planning: bool,
+    /// The planning field with its pending tiles computed, for readers holding `&self`.
+    planning_snapshot: OnceLock<FieldGrid>,
     /// Per sample id: its constraint's ids in the main and topology levels.
     sample_ids: Vec<(Option<u32>, Option<u32>)>,
     path_ids: Vec<u32>,
@@ -217,6 +221,8 @@ impl TensorField {
             ),
             main,
             topo,
+            lazy_planning: false,
+            planning_snapshot: OnceLock::new(),
             sample_ids: Vec::new(),
             path_ids: Vec::new(),
             obstacle: clearance::ObstacleIndex::from_fn(grid, |_| false),
@@ -238,9 +244,44 @@ impl TensorField {
         &self.cfg
     }
 
-    /// The planning field's grid of `(a, b)`.
+    /// The planning field's grid of `(a, b)` (pending tiles computed on first read).
     pub fn field(&self) -> &FieldGrid {
-        &self.main.grid
+        if self.main.is_stale() {
+            self.planning_snapshot
+                .get_or_init(|| self.main.refreshed_grid())
+        } else {
+            &self.main.grid
+        }
+    }
+
+    /// Lazy planning field: key frames and [`TensorField::set_path`] leave the planning field's
+    /// changed tiles pending, and [`TensorField::prepare_pathline`] computes only those a pathline can
+    /// reach. THP reads the planning field only along its pathlines, a few metres around the robot,
+    /// while each key frame changes it wherever the map grew. Readers of [`TensorField::field`] still
+    /// see the whole field, equal bit for bit (a tile's value depends only on the constraint set).
+    /// Needs a separate topology level (topology reads the whole field); without one it has no effect.
+    pub fn set_lazy_planning_field(&mut self, lazy: bool) {
+        self.lazy_planning = lazy && self.topo.is_some();
+        if !self.lazy_planning {
+            self.main.refresh();
+            self.planning_snapshot = OnceLock::new();
+        }
+    }
+
+    /// How far from its start a pathline of length `max_len` can read the planning field: its
+    /// points, the RK4 stages one step ahead, and the cell centres around them.
+    fn pathline_reach(&self, max_len: f64) -> f64 {
+        max_len + 2.0 * self.cfg.rk4_step_m + 2.0 * self.grid.res
+    }
+
+    /// Computes the pending tiles a pathline of length `max_len` from `start` can read (lazy mode).
+    pub fn prepare_pathline(&mut self, start: Point2<f64>, max_len: f64) -> usize {
+        let r = self.pathline_reach(max_len);
+        let cells = self.main.refresh_near(start, r);
+        if cells > 0 {
+            self.planning_snapshot = OnceLock::new();
+        }
+        cells
     }
 
     /// The (regularised, possibly edited by topological control) field the topology was computed on.
@@ -250,7 +291,7 @@ impl TensorField {
 
     /// The planning field at `p` (bilinear between cell centres).
     pub fn sample(&self, p: Point2<f64>) -> Option<TensorSample> {
-        self.main.grid.sample(p)
+        self.field().sample(p)
     }
 
     /// Degenerate points of the last key frame, with stable ids.
@@ -340,15 +381,22 @@ impl TensorField {
         }
         stats.sampling_ms = ms(t0);
         let t1 = Instant::now();
-        stats.cells_evaluated = self.main.refresh() + self.topo.as_mut().map_or(0, |l| l.refresh());
+        self.planning_snapshot = OnceLock::new();
+        let main = if self.lazy_planning {
+            0
+        } else {
+            self.main.refresh()
+        };
+        stats.cells_evaluated = main + self.topo.as_mut().map_or(0, |l| l.refresh());
         stats.field_ms = ms(t1);
         Ok(stats)
     }
 
     /// Replaces the path constraints (THP Eq. 10) of the planning field; the topology is unchanged.
     /// The path changes the field only within σ of itself (THP §3.5), so an update recomputes a
-    /// narrow band around the old and the new path.
+    /// narrow band around the old and the new path (or, lazy, leaves it pending).
     pub fn set_path(&mut self, path: &[Point2<f64>]) -> usize {
+        self.planning_snapshot = OnceLock::new();
         for id in std::mem::take(&mut self.path_ids) {
             self.main.remove(id);
         }
@@ -358,21 +406,28 @@ impl TensorField {
                 self.path_ids.push(self.main.insert(c));
             }
         }
-        self.main.refresh()
+        if self.lazy_planning {
+            0
+        } else {
+            self.main.refresh()
+        }
     }
 
     /// Recomputes both fields from scratch (the bench's "full recompute"); returns cells evaluated.
     pub fn recompute_all(&mut self) -> usize {
+        self.planning_snapshot = OnceLock::new();
         self.main.recompute_all() + self.topo.as_mut().map_or(0, |l| l.recompute_all())
     }
 
     /// Recomputes the planning field alone from scratch (compared with the reference in the bench).
     pub fn recompute_planning_field(&mut self) -> usize {
+        self.planning_snapshot = OnceLock::new();
         self.main.recompute_all()
     }
 
     /// A pathline of the planning field from `start`, leaving along the direction nearest `heading`,
-    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points.
+    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points. Fast
+    /// when [`TensorField::prepare_pathline`] computed what it reads; else it reads [`TensorField::field`].
     pub fn pathline(
         &self,
         start: Point2<f64>,
@@ -389,14 +444,12 @@ impl TensorField {
             degenerate_radius_m: self.cfg.arrive_radius_m,
             origin: None,
         };
-        pathline(
-            self.field(),
-            start,
-            heading,
-            max_len,
-            self.cfg.rk4_step_m,
-            &stop,
-        )
+        let field = if self.main.is_fresh_near(start, self.pathline_reach(max_len)) {
+            &self.main.grid
+        } else {
+            self.field()
+        };
+        pathline(field, start, heading, max_len, self.cfg.rk4_step_m, &stop)
     }
 
     /// Degenerate points (tracked), separatrices and graph, with topological control if enabled.
@@ -635,7 +688,7 @@ pub fn max_orientation_difference_vs_reference(field: &mut TensorField) -> Refer
     let reference = eval::reference_grid(&cs, &field.grid, field.main.kernel());
     let reference_ms = ms(t);
     let t = Instant::now();
-    field.main.recompute_all();
+    field.recompute_planning_field();
     let fast_full_ms = ms(t);
     ReferenceComparison {
         max_orientation_difference_rad: eval::max_orientation_difference(
