@@ -124,8 +124,8 @@ mod tests {
             }
             let index = ObstacleIndex::from_fn(grid, |i| mask[i]);
             let full = super::super::obstacle_distance(&grid, &mask);
-            for i in 0..grid.cells() {
-                assert_eq!(index.clearance(i), full[i], "round {round} cell {i}");
+            for (i, &d) in full.iter().enumerate() {
+                assert_eq!(index.clearance(i), d, "round {round} cell {i}");
             }
         }
     }
