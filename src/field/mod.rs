@@ -35,6 +35,7 @@
 //! junctions, and keep their position and id when more of the scene is revealed.
 
 pub(crate) mod advect;
+pub(crate) mod clearance;
 pub(crate) mod constraints;
 pub(crate) mod control;
 pub(crate) mod degenerate;
@@ -56,6 +57,7 @@ use crate::error::{Error, Result};
 use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
 use nalgebra::Point2;
 use serde::Serialize;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 /// The per-cell layers the field reads from the map (flat cell indices of `grid()`).
@@ -166,15 +168,25 @@ pub struct TensorField {
     sampler: SurfaceSampler,
     main: FieldLevel,
     topo: Option<FieldLevel>,
+    /// Leave the planning field's changed tiles pending until read ([`TensorField::set_lazy_planning_field`]).
+    lazy_planning: bool,
+    /// The planning field with its pending tiles computed, for readers holding `&self`.
+    planning_snapshot: OnceLock<FieldGrid>,
     /// Per sample id: its constraint's ids in the main and topology levels.
     sample_ids: Vec<(Option<u32>, Option<u32>)>,
     path_ids: Vec<u32>,
-    obstacle: Vec<bool>,
-    unknown: Vec<bool>,
-    clearance: Vec<f64>,
+    /// The obstacle layer of the last update, indexed for clearance queries.
+    obstacle: clearance::ObstacleIndex,
+    unknown: Arc<Vec<bool>>,
     tracker: degenerate::Tracker,
     topo_field: FieldGrid,
-    graph: TopologyGraph,
+    /// Tracked degenerate points of the last key frame (the graph's nodes).
+    nodes: Vec<DegeneratePoint>,
+    /// The topology graph, built on first use: THP reads only the points, so separatrices and
+    /// pairing are traced only for a reader of [`TensorField::graph`] (TENSOR, logs, drawing).
+    graph: OnceLock<TopologyGraph>,
+    /// The obstacle and unknown layers the pending graph is built with (those of its key frame).
+    graph_inputs: (Arc<Vec<bool>>, Arc<Vec<bool>>),
     control: ControlCounts,
 }
 
@@ -209,14 +221,17 @@ impl TensorField {
             ),
             main,
             topo,
+            lazy_planning: false,
+            planning_snapshot: OnceLock::new(),
             sample_ids: Vec::new(),
             path_ids: Vec::new(),
-            obstacle: vec![false; grid.cells()],
-            unknown: vec![false; grid.cells()],
-            clearance: vec![f64::INFINITY; grid.cells()],
+            obstacle: clearance::ObstacleIndex::from_fn(grid, |_| false),
+            unknown: Arc::new(vec![false; grid.cells()]),
             tracker: degenerate::Tracker::default(),
             topo_field,
-            graph: TopologyGraph::default(),
+            nodes: Vec::new(),
+            graph: OnceLock::from(TopologyGraph::default()),
+            graph_inputs: Default::default(),
             control: ControlCounts::default(),
         }
     }
@@ -229,9 +244,44 @@ impl TensorField {
         &self.cfg
     }
 
-    /// The planning field's grid of `(a, b)`.
+    /// The planning field's grid of `(a, b)` (pending tiles computed on first read).
     pub fn field(&self) -> &FieldGrid {
-        &self.main.grid
+        if self.main.is_stale() {
+            self.planning_snapshot
+                .get_or_init(|| self.main.refreshed_grid())
+        } else {
+            &self.main.grid
+        }
+    }
+
+    /// Lazy planning field: key frames and [`TensorField::set_path`] leave the planning field's
+    /// changed tiles pending, and [`TensorField::prepare_pathline`] computes only those a pathline can
+    /// reach. THP reads the planning field only along its pathlines, a few metres around the robot,
+    /// while each key frame changes it wherever the map grew. Readers of [`TensorField::field`] still
+    /// see the whole field, equal bit for bit (a tile's value depends only on the constraint set).
+    /// Needs a separate topology level (topology reads the whole field); without one it has no effect.
+    pub fn set_lazy_planning_field(&mut self, lazy: bool) {
+        self.lazy_planning = lazy && self.topo.is_some();
+        if !self.lazy_planning {
+            self.main.refresh();
+            self.planning_snapshot = OnceLock::new();
+        }
+    }
+
+    /// How far from its start a pathline of length `max_len` can read the planning field: its
+    /// points, the RK4 stages one step ahead, and the cell centres around them.
+    fn pathline_reach(&self, max_len: f64) -> f64 {
+        max_len + 2.0 * self.cfg.rk4_step_m + 2.0 * self.grid.res
+    }
+
+    /// Computes the pending tiles a pathline of length `max_len` from `start` can read (lazy mode).
+    pub fn prepare_pathline(&mut self, start: Point2<f64>, max_len: f64) -> usize {
+        let r = self.pathline_reach(max_len);
+        let cells = self.main.refresh_near(start, r);
+        if cells > 0 {
+            self.planning_snapshot = OnceLock::new();
+        }
+        cells
     }
 
     /// The (regularised, possibly edited by topological control) field the topology was computed on.
@@ -241,16 +291,20 @@ impl TensorField {
 
     /// The planning field at `p` (bilinear between cell centres).
     pub fn sample(&self, p: Point2<f64>) -> Option<TensorSample> {
-        self.main.grid.sample(p)
+        self.field().sample(p)
     }
 
     /// Degenerate points of the last key frame, with stable ids.
     pub fn points(&self) -> &[DegeneratePoint] {
-        &self.graph.nodes
+        &self.nodes
     }
 
+    /// The topology graph of the last key frame (built now if no one asked for it yet).
     pub fn graph(&self) -> &TopologyGraph {
-        &self.graph
+        self.graph.get_or_init(|| {
+            let (obstacle, unknown) = &self.graph_inputs;
+            self.build_graph(&self.topo_field, self.nodes.clone(), obstacle, unknown)
+        })
     }
 
     pub fn control_counts(&self) -> ControlCounts {
@@ -271,7 +325,7 @@ impl TensorField {
     pub fn clearance_at(&self, p: Point2<f64>) -> f64 {
         self.grid
             .cell_of(p)
-            .map(|c| self.clearance[self.grid.index(c)])
+            .map(|c| self.obstacle.clearance(self.grid.index(c)))
             .unwrap_or(0.0)
     }
 
@@ -294,10 +348,13 @@ impl TensorField {
         }
         let mut stats = UpdateStats::default();
         let t0 = Instant::now();
-        for i in 0..self.grid.cells() {
-            self.obstacle[i] = inputs.is_obstacle(i);
-            self.unknown[i] = inputs.is_unknown(i);
-        }
+        // Fresh layers (not written in place): a graph not built yet keeps those of its key frame.
+        self.obstacle = clearance::ObstacleIndex::from_fn(self.grid, |i| inputs.is_obstacle(i));
+        self.unknown = Arc::new(
+            (0..self.grid.cells())
+                .map(|i| inputs.is_unknown(i))
+                .collect(),
+        );
         let changes = self.sampler.update(|i| inputs.is_surface(i));
         stats.samples_added = changes.added.len();
         stats.samples_removed = changes.removed.len();
@@ -324,15 +381,22 @@ impl TensorField {
         }
         stats.sampling_ms = ms(t0);
         let t1 = Instant::now();
-        stats.cells_evaluated = self.main.refresh() + self.topo.as_mut().map_or(0, |l| l.refresh());
+        self.planning_snapshot = OnceLock::new();
+        let main = if self.lazy_planning {
+            0
+        } else {
+            self.main.refresh()
+        };
+        stats.cells_evaluated = main + self.topo.as_mut().map_or(0, |l| l.refresh());
         stats.field_ms = ms(t1);
         Ok(stats)
     }
 
     /// Replaces the path constraints (THP Eq. 10) of the planning field; the topology is unchanged.
     /// The path changes the field only within σ of itself (THP §3.5), so an update recomputes a
-    /// narrow band around the old and the new path.
+    /// narrow band around the old and the new path (or, lazy, leaves it pending).
     pub fn set_path(&mut self, path: &[Point2<f64>]) -> usize {
+        self.planning_snapshot = OnceLock::new();
         for id in std::mem::take(&mut self.path_ids) {
             self.main.remove(id);
         }
@@ -342,21 +406,28 @@ impl TensorField {
                 self.path_ids.push(self.main.insert(c));
             }
         }
-        self.main.refresh()
+        if self.lazy_planning {
+            0
+        } else {
+            self.main.refresh()
+        }
     }
 
     /// Recomputes both fields from scratch (the bench's "full recompute"); returns cells evaluated.
     pub fn recompute_all(&mut self) -> usize {
+        self.planning_snapshot = OnceLock::new();
         self.main.recompute_all() + self.topo.as_mut().map_or(0, |l| l.recompute_all())
     }
 
     /// Recomputes the planning field alone from scratch (compared with the reference in the bench).
     pub fn recompute_planning_field(&mut self) -> usize {
+        self.planning_snapshot = OnceLock::new();
         self.main.recompute_all()
     }
 
     /// A pathline of the planning field from `start`, leaving along the direction nearest `heading`,
-    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points.
+    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points. Fast
+    /// when [`TensorField::prepare_pathline`] computed what it reads; else it reads [`TensorField::field`].
     pub fn pathline(
         &self,
         start: Point2<f64>,
@@ -364,36 +435,27 @@ impl TensorField {
         max_len: f64,
         stop_at_unknown: bool,
     ) -> (Vec<Point2<f64>>, StopReason) {
-        let pts: Vec<Point2<f64>> = self.graph.nodes.iter().map(|n| n.pos()).collect();
+        let pts: Vec<Point2<f64>> = self.nodes.iter().map(|n| n.pos()).collect();
         let stop = StopConditions {
             grid: &self.grid,
-            obstacle: Some(&self.obstacle),
+            obstacle: Some(self.obstacle.mask()),
             unknown: stop_at_unknown.then_some(&self.unknown[..]),
             degenerate_points: &pts,
             degenerate_radius_m: self.cfg.arrive_radius_m,
             origin: None,
         };
-        pathline(
-            self.field(),
-            start,
-            heading,
-            max_len,
-            self.cfg.rk4_step_m,
-            &stop,
-        )
+        let field = if self.main.is_fresh_near(start, self.pathline_reach(max_len)) {
+            &self.main.grid
+        } else {
+            self.field()
+        };
+        pathline(field, start, heading, max_len, self.cfg.rk4_step_m, &stop)
     }
 
     /// Degenerate points (tracked), separatrices and graph, with topological control if enabled.
     /// Public so that the bench can time it on its own.
     pub fn compute_topology(&mut self) {
-        self.clearance = obstacle_distance(&self.grid, &self.obstacle);
         self.topo_field = self.topo.as_ref().unwrap_or(&self.main).grid.clone();
-        let opts = topology::TraceOptions {
-            step_m: self.cfg.rk4_step_m,
-            max_length_m: self.cfg.separatrix_max_length_m,
-            arrive_radius_m: self.cfg.arrive_radius_m,
-            stop_at_unknown: self.cfg.stop_at_unknown,
-        };
         let mut nodes = self.find_points(&self.topo_field);
         self.control = ControlCounts::default();
         // Moves need no graph: apply them first, so the graph is built once in the default setting.
@@ -405,29 +467,47 @@ impl TensorField {
                 nodes = self.find_points(&self.topo_field);
             }
         }
-        let build = |field: &FieldGrid, nodes| {
-            topology::build(
-                field,
-                nodes,
-                &self.grid,
-                &self.obstacle,
-                &self.unknown,
-                &opts,
-            )
-        };
-        let mut graph = build(&self.topo_field, nodes);
+        let inputs = (self.obstacle.mask().clone(), self.unknown.clone());
+        let mut graph = None;
         if self.cfg.cancel_pairs {
+            // Cancellation needs the graph's distances: build it now.
+            let built = self.build_graph(&self.topo_field, nodes.clone(), &inputs.0, &inputs.1);
             let mut edited = self.topo_field.clone();
-            let cancelled = self.cancel_pairs(&mut edited, &graph);
+            let cancelled = self.cancel_pairs(&mut edited, &built);
             if cancelled > 0 {
                 self.control.cancelled_pairs = cancelled;
-                let nodes = self.find_points(&edited);
-                graph = build(&edited, nodes);
+                nodes = self.find_points(&edited);
                 self.topo_field = edited;
+            } else {
+                graph = Some(built);
             }
         }
-        graph.nodes = self.tracker.assign(graph.nodes, self.cfg.track_radius_m);
-        self.graph = graph;
+        // Tracking keeps the order of the points, and the graph does not read their ids, so a graph
+        // built from the tracked points equals one built before tracking (as it was) and relabelled.
+        self.nodes = self.tracker.assign(nodes, self.cfg.track_radius_m);
+        self.graph = OnceLock::new();
+        if let Some(mut g) = graph {
+            g.nodes = self.nodes.clone();
+            let _ = self.graph.set(g);
+        }
+        self.graph_inputs = inputs;
+    }
+
+    /// Separatrices and the graph of `nodes` on `field` (the last key frame's layers).
+    fn build_graph(
+        &self,
+        field: &FieldGrid,
+        nodes: Vec<DegeneratePoint>,
+        obstacle: &[bool],
+        unknown: &[bool],
+    ) -> TopologyGraph {
+        let opts = topology::TraceOptions {
+            step_m: self.cfg.rk4_step_m,
+            max_length_m: self.cfg.separatrix_max_length_m,
+            arrive_radius_m: self.cfg.arrive_radius_m,
+            stop_at_unknown: self.cfg.stop_at_unknown,
+        };
+        topology::build(field, nodes, &self.grid, obstacle, unknown, &opts)
     }
 
     /// Points of `field` with their clearance, without those too close to obstacles (ids unset).
@@ -521,7 +601,7 @@ impl TensorField {
         let mut c = g.cell_of(p)?;
         let steps = (self.cfg.max_move_m / g.res).floor() as usize;
         for _ in 0..steps {
-            let here = self.clearance[g.index(c)];
+            let here = self.obstacle.clearance(g.index(c));
             if done(here) {
                 let q = g.center(c);
                 return ((q - p).norm() > 0.0).then_some(q);
@@ -530,12 +610,10 @@ impl TensorField {
                 .iter()
                 .filter_map(|&(dx, dy)| {
                     g.checked_index(Cell::new(c.x + dx, c.y + dy))
-                        .map(|i| (i, dx, dy))
+                        .map(|i| (self.obstacle.clearance(i), dx, dy))
                 })
-                .max_by(|a, b| {
-                    (sign * self.clearance[a.0]).total_cmp(&(sign * self.clearance[b.0]))
-                })?;
-            if sign * self.clearance[next.0] <= sign * here {
+                .max_by(|a, b| (sign * a.0).total_cmp(&(sign * b.0)))?;
+            if sign * next.0 <= sign * here {
                 return None;
             }
             c = Cell::new(c.x + next.1, c.y + next.2);
@@ -610,7 +688,7 @@ pub fn max_orientation_difference_vs_reference(field: &mut TensorField) -> Refer
     let reference = eval::reference_grid(&cs, &field.grid, field.main.kernel());
     let reference_ms = ms(t);
     let t = Instant::now();
-    field.main.recompute_all();
+    field.recompute_planning_field();
     let fast_full_ms = ms(t);
     ReferenceComparison {
         max_orientation_difference_rad: eval::max_orientation_difference(

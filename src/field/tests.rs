@@ -406,3 +406,46 @@ fn path_constraints_steer_the_planning_field_not_the_topology() {
     let again = run(&l, &cfg());
     assert_eq!(f.field(), again.field());
 }
+
+#[test]
+fn lazy_planning_field_equals_the_eager_one_after_key_frames_and_paths() {
+    // The office revealed key frame by key frame, with a path set between key frames (as THP does):
+    // the lazy field's pathlines, whole field, points and graph equal those of the eager field.
+    let l = synth::office(0.1);
+    let mut eager = TensorField::new(l.grid, &cfg());
+    let mut lazy = TensorField::new(l.grid, &cfg());
+    lazy.set_lazy_planning_field(true);
+    let route = [
+        Point2::new(2.0, 10.0),
+        Point2::new(6.0, 10.0),
+        Point2::new(10.0, 10.0),
+        Point2::new(10.0, 14.0),
+        Point2::new(10.0, 18.0),
+    ];
+    let mut seen = Vec::new();
+    for (k, c) in route.iter().enumerate() {
+        seen.push(*c);
+        let surface = synth::reveal(&l, &seen, 7.0);
+        let inputs = MaskInputs::new(&l.grid, &surface, &surface, None).unwrap();
+        eager.update(&inputs).unwrap();
+        lazy.update(&inputs).unwrap();
+        assert_eq!(lazy.points(), eager.points(), "key frame {k}");
+        let path = [*c, route[(k + 1) % route.len()]];
+        eager.set_path(&path);
+        lazy.set_path(&path);
+        let evaluated = lazy.prepare_pathline(*c, 2.0);
+        assert!(evaluated > 0 && evaluated < l.grid.cells(), "{evaluated}");
+        for heading in [0.0, 1.0, 2.5, 4.0] {
+            assert_eq!(
+                lazy.pathline(*c, heading, 2.0, false),
+                eager.pathline(*c, heading, 2.0, false),
+                "key frame {k}, heading {heading}"
+            );
+        }
+        assert_eq!(lazy.field(), eager.field(), "key frame {k}");
+        let mut full = eager.clone();
+        full.recompute_all();
+        assert_eq!(full.field(), lazy.field(), "key frame {k}");
+        assert_eq!(lazy.graph(), eager.graph(), "key frame {k}");
+    }
+}

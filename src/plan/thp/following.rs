@@ -136,6 +136,9 @@ impl Thp {
             self.stats.advection_stalls.add(1.0);
         }
         if self.cfg.advection && !goal.direct {
+            if let Some(field) = self.field.as_mut() {
+                field.prepare_pathline(robot, self.cfg.advect_length_m);
+            }
             if let Some(field) = &self.field {
                 let aim = goal.path[(progress + 5).min(goal.path.len() - 1)];
                 let heading = if (aim - robot).norm() > 1e-6 {

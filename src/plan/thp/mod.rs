@@ -223,9 +223,12 @@ impl FieldPlanner for Thp {
             return Ok(());
         }
         let first = self.field.is_none();
-        let field = self
-            .field
-            .get_or_insert_with(|| TensorField::new(*map.grid(), &self.field_cfg));
+        let field = self.field.get_or_insert_with(|| {
+            let mut f = TensorField::new(*map.grid(), &self.field_cfg);
+            // THP reads the planning field only along its pathlines (`prepare_pathline`).
+            f.set_lazy_planning_field(true);
+            f
+        });
         field.update(map)?;
         self.next_key_frame_s = time_s + self.cfg.field_period_s;
         self.stats.key_frames.add(1.0);
