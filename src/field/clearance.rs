@@ -91,8 +91,8 @@ impl ObstacleIndex {
         (best != i64::MAX).then_some(best)
     }
 
-    /// Clearance of cell index `i`, metres: `sqrt(d²)·res` as [`super::obstacle_distance`] gives it
-    /// (∞ without obstacles).
+    /// Clearance of cell index `i`, metres: `sqrt(d²)·res` of the exact distance transform
+    /// ([`crate::grid::distance_transform`]; ∞ without obstacles).
     pub fn clearance(&self, i: usize) -> f64 {
         self.nearest_d2(self.grid.cell(i))
             .map_or(f64::INFINITY, |d2| (d2 as f64).sqrt() * self.grid.res)
@@ -123,8 +123,9 @@ mod tests {
                 }
             }
             let index = ObstacleIndex::from_fn(grid, |i| mask[i]);
-            let full = super::super::obstacle_distance(&grid, &mask);
-            for (i, &d) in full.iter().enumerate() {
+            let full = crate::grid::distance_transform(&mask, grid.nx, grid.ny);
+            for (i, &d2) in full.iter().enumerate() {
+                let d = d2.sqrt() * grid.res;
                 assert_eq!(index.clearance(i), d, "round {round} cell {i}");
             }
         }

@@ -472,27 +472,35 @@ impl FieldLevel {
 
     /// Recomputes the tiles that changed constraints can reach; returns how many cells it evaluated.
     pub fn refresh(&mut self) -> usize {
-        let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
+        let tiles: Vec<usize> = self.dirty_tiles(|_| true).collect();
         self.recompute(&tiles)
     }
 
     /// Recomputes the changed tiles with a cell centre within `r` of `p` (what a reader of that disc
     /// needs; the rest stay pending); returns how many cells it evaluated.
     pub fn refresh_near(&mut self, p: Point2<f64>, r: f64) -> usize {
-        let tiles: Vec<usize> = (0..self.dirty.len())
-            .filter(|&t| self.dirty[t] && self.tile_reaches(t, p, r))
-            .collect();
+        let tiles: Vec<usize> = self.dirty_tiles(|t| self.tile_reaches(t, p, r)).collect();
         self.recompute(&tiles)
     }
 
     /// Whether no changed tile has a cell centre within `r` of `p`.
     pub fn is_fresh_near(&self, p: Point2<f64>, r: f64) -> bool {
-        !(0..self.dirty.len()).any(|t| self.dirty[t] && self.tile_reaches(t, p, r))
+        self.dirty_tiles(|t| self.tile_reaches(t, p, r))
+            .next()
+            .is_none()
     }
 
     /// Whether some tile waits for a refresh.
     pub fn is_stale(&self) -> bool {
         self.dirty.iter().any(|&d| d)
+    }
+
+    /// The changed tiles that `keep` accepts, ascending.
+    fn dirty_tiles<'a>(
+        &'a self,
+        keep: impl Fn(usize) -> bool + 'a,
+    ) -> impl Iterator<Item = usize> + 'a {
+        (0..self.dirty.len()).filter(move |&t| self.dirty[t] && keep(t))
     }
 
     /// Whether tile `t` may hold a cell centre within `r` of `p` (its centres lie within its
@@ -505,13 +513,9 @@ impl FieldLevel {
     /// The grid a [`FieldLevel::refresh`] would leave, computed without changing the level (for
     /// readers holding only `&self`).
     pub fn refreshed_grid(&self) -> FieldGrid {
-        let tiles: Vec<usize> = (0..self.dirty.len()).filter(|&t| self.dirty[t]).collect();
-        let outs: Vec<TileOut> = tiles
-            .par_iter()
-            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
-            .collect();
+        let tiles: Vec<usize> = self.dirty_tiles(|_| true).collect();
         let mut grid = self.grid.clone();
-        for out in outs {
+        for out in self.compute_tiles(&tiles) {
             for (i, ab, w) in out.values {
                 grid.ab[i] = ab;
                 grid.weight[i] = w;
@@ -527,12 +531,8 @@ impl FieldLevel {
     }
 
     fn recompute(&mut self, tiles: &[usize]) -> usize {
-        let outs: Vec<TileOut> = tiles
-            .par_iter()
-            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
-            .collect();
         let mut cells = 0;
-        for out in outs {
+        for out in self.compute_tiles(tiles) {
             self.reach[out.tile] = out.reach;
             self.dirty[out.tile] = false;
             cells += out.values.len();
@@ -542,6 +542,15 @@ impl FieldLevel {
             }
         }
         cells
+    }
+
+    /// The new values of `tiles`, computed in parallel (each tile on its own: the same whatever the
+    /// split).
+    fn compute_tiles(&self, tiles: &[usize]) -> Vec<TileOut> {
+        tiles
+            .par_iter()
+            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
+            .collect()
     }
 
     fn compute_tile(&self, tile: usize, cands: &mut Vec<Constraint>) -> TileOut {

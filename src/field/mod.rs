@@ -648,15 +648,6 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-/// Euclidean distance from every cell centre to the nearest `true` cell centre, metres (the exact
-/// transform the ground truth uses); `f64::INFINITY` where there is none.
-pub fn obstacle_distance(grid: &GridSpec, mask: &[bool]) -> Vec<f64> {
-    crate::grid::distance_transform(mask, grid.nx, grid.ny)
-        .into_iter()
-        .map(|d2| d2.sqrt() * grid.res)
-        .collect()
-}
-
 /// The field of a fully observed layout (surface and obstacle layers of `grid`), in one key frame,
 /// with what the update measured.
 pub fn full_field(

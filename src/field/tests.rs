@@ -225,17 +225,20 @@ fn office_fast_field_matches_reference_and_points_are_few_and_clear() {
         .any(|n| matches!(n.kind, DegenerateKind::Trisector | DegenerateKind::Wedge)));
 }
 
+/// Viewpoints along the synthetic office's corridor, revealed one by one.
+const OFFICE_ROUTE: [Point2<f64>; 5] = [
+    Point2::new(2.0, 10.0),
+    Point2::new(6.0, 10.0),
+    Point2::new(10.0, 10.0),
+    Point2::new(10.0, 14.0),
+    Point2::new(10.0, 18.0),
+];
+
 #[test]
 fn points_stay_put_as_more_of_an_axis_aligned_scene_is_revealed() {
     let l = synth::office(0.1);
     let mut f = TensorField::new(l.grid, &cfg());
-    let route = [
-        Point2::new(2.0, 10.0),
-        Point2::new(6.0, 10.0),
-        Point2::new(10.0, 10.0),
-        Point2::new(10.0, 14.0),
-        Point2::new(10.0, 18.0),
-    ];
+    let route = OFFICE_ROUTE;
     let mut previous: Vec<DegeneratePoint> = Vec::new();
     let mut seen_centres: Vec<Point2<f64>> = Vec::new();
     for (k, c) in route.iter().enumerate() {
@@ -415,13 +418,7 @@ fn lazy_planning_field_equals_the_eager_one_after_key_frames_and_paths() {
     let mut eager = TensorField::new(l.grid, &cfg());
     let mut lazy = TensorField::new(l.grid, &cfg());
     lazy.set_lazy_planning_field(true);
-    let route = [
-        Point2::new(2.0, 10.0),
-        Point2::new(6.0, 10.0),
-        Point2::new(10.0, 10.0),
-        Point2::new(10.0, 14.0),
-        Point2::new(10.0, 18.0),
-    ];
+    let route = OFFICE_ROUTE;
     let mut seen = Vec::new();
     for (k, c) in route.iter().enumerate() {
         seen.push(*c);
