@@ -188,7 +188,10 @@ pub struct ConstraintStore {
     fine: GridSpec,
     slots: Vec<Option<Constraint>>,
     free: Vec<u32>,
-    bins: Vec<Vec<u32>>,
+    /// Per bin, its constraints with their ids, sorted by [`ConstraintStore::order`]. The constraints
+    /// are stored here by value (besides `slots`) so that the tile gathers, the hot loop of every
+    /// refresh, read each bin as one contiguous run instead of chasing ids.
+    bins: Vec<Vec<(u32, Constraint)>>,
     bx: i32,
     by: i32,
     /// The largest finite radius of influence ever inserted (0 if none): how far around a tile
@@ -223,14 +226,12 @@ impl ConstraintStore {
         (c.pos.y, c.pos.x)
     }
 
-    fn order(&self, a: u32, b: u32) -> std::cmp::Ordering {
-        let (ka, kb) = (
-            Self::key(self.slots[a as usize].as_ref().expect("live")),
-            Self::key(self.slots[b as usize].as_ref().expect("live")),
-        );
+    /// The order of constraints within a bin: by position (y, then x), then id.
+    fn order((a, ca): &(u32, Constraint), (b, cb): &(u32, Constraint)) -> std::cmp::Ordering {
+        let (ka, kb) = (Self::key(ca), Self::key(cb));
         ka.0.total_cmp(&kb.0)
             .then(ka.1.total_cmp(&kb.1))
-            .then(a.cmp(&b))
+            .then(a.cmp(b))
     }
 
     /// Adds a constraint; returns its id.
@@ -250,13 +251,12 @@ impl ConstraintStore {
         };
         let (x, y) = self.bin_of(c.pos);
         let bin = (y * self.bx + x) as usize;
-        let list = std::mem::take(&mut self.bins[bin]);
+        let list = &mut self.bins[bin];
+        let entry = (id, c);
         let pos = list
-            .binary_search_by(|&o| self.order(o, id))
+            .binary_search_by(|o| Self::order(o, &entry))
             .unwrap_or_else(|e| e);
-        let mut list = list;
-        list.insert(pos, id);
-        self.bins[bin] = list;
+        list.insert(pos, entry);
         id
     }
 
@@ -264,7 +264,7 @@ impl ConstraintStore {
     pub fn remove(&mut self, id: u32) -> Option<Constraint> {
         let c = self.slots.get_mut(id as usize)?.take()?;
         let (x, y) = self.bin_of(c.pos);
-        self.bins[(y * self.bx + x) as usize].retain(|&o| o != id);
+        self.bins[(y * self.bx + x) as usize].retain(|&(o, _)| o != id);
         self.free.push(id);
         Some(c)
     }
@@ -301,8 +301,7 @@ impl ConstraintStore {
                     if x < 0 || y < 0 || x >= self.bx || y >= self.by {
                         continue;
                     }
-                    for &id in &self.bins[(y * self.bx + x) as usize] {
-                        let c = self.slots[id as usize].as_ref().expect("live");
+                    for (_, c) in &self.bins[(y * self.bx + x) as usize] {
                         if !c.is_limited() {
                             best = best.min((p - c.pos).norm_squared());
                         }
@@ -325,8 +324,7 @@ impl ConstraintStore {
         let r2 = r * r;
         for y in y0..=y1 {
             for x in x0..=x1 {
-                for &id in &self.bins[(y * self.bx + x) as usize] {
-                    let c = self.slots[id as usize].as_ref().expect("live");
+                for (_, c) in &self.bins[(y * self.bx + x) as usize] {
                     if (p - c.pos).norm_squared() <= r2 {
                         out.push(*c);
                     }
@@ -352,6 +350,18 @@ pub struct FieldLevel {
     dirty: Vec<bool>,
     /// `g[k] = exp(-c (k·h)²)` for half-cell offsets k (h = fine.res/2).
     g: Vec<f64>,
+}
+
+/// Per-task buffers of [`FieldLevel::compute_tile`], reused from tile to tile (a refresh computes
+/// hundreds of tiles; their gathers and factor tables would otherwise be allocated each time).
+#[derive(Default)]
+struct TileScratch {
+    cands: Vec<Constraint>,
+    col: Vec<f64>,
+    row: Vec<f64>,
+    ta: Vec<f64>,
+    tb: Vec<f64>,
+    st: Vec<f64>,
 }
 
 struct TileOut {
@@ -549,11 +559,19 @@ impl FieldLevel {
     fn compute_tiles(&self, tiles: &[usize]) -> Vec<TileOut> {
         tiles
             .par_iter()
-            .map_init(Vec::new, |buf, &t| self.compute_tile(t, buf))
+            .map_init(TileScratch::default, |buf, &t| self.compute_tile(t, buf))
             .collect()
     }
 
-    fn compute_tile(&self, tile: usize, cands: &mut Vec<Constraint>) -> TileOut {
+    fn compute_tile(&self, tile: usize, scratch: &mut TileScratch) -> TileOut {
+        let TileScratch {
+            cands,
+            col,
+            row,
+            ta,
+            tb,
+            st,
+        } = scratch;
         let s = &self.grid.spec;
         let (tx, ty) = (tile % self.tiles_x, tile / self.tiles_x);
         let xs: Vec<usize> = (tx * TILE..(tx * TILE + TILE).min(s.nx)).collect();
@@ -654,8 +672,10 @@ impl FieldLevel {
         let n = cands.len();
         let e0 = (k.c * q0).exp();
         let f = self.factor as i64;
-        let mut col = vec![0.0; xs.len() * n];
-        let mut row = vec![0.0; ys.len() * n];
+        col.clear();
+        col.resize(xs.len() * n, 0.0);
+        row.clear();
+        row.resize(ys.len() * n, 0.0);
         let h = self.fine.res / 2.0;
         let gval = |d: i64| -> f64 {
             let d = d.unsigned_abs() as usize;
@@ -687,15 +707,18 @@ impl FieldLevel {
                 }
             }
         }
-        let ta: Vec<f64> = cands.iter().map(|c| c.tensor[0]).collect();
-        let tb: Vec<f64> = cands.iter().map(|c| c.tensor[1]).collect();
-        let st: Vec<f64> = cands.iter().map(|c| c.strength).collect();
+        ta.clear();
+        ta.extend(cands.iter().map(|c| c.tensor[0]));
+        tb.clear();
+        tb.extend(cands.iter().map(|c| c.tensor[1]));
+        st.clear();
+        st.extend(cands.iter().map(|c| c.strength));
         let mut ci = 0;
         for i in 0..ys.len() {
             let r = &row[i * n..(i + 1) * n];
             for j in 0..xs.len() {
                 let cl = &col[j * n..(j + 1) * n];
-                let [a, b, w] = weighted_sums(cl, r, &ta, &tb, &st);
+                let [a, b, w] = weighted_sums(cl, r, ta, tb, st);
                 let scale = (k.c * (dmin2[ci] - q0)).exp();
                 let [la, lb, lw] = limited_terms(ci, cells[ci].1);
                 values.push((
