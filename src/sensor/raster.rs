@@ -40,8 +40,9 @@ const BIN_M: f32 = 1.0;
 /// surface nearer than this is not rendered; the caster would report it as too near (NaN) anyway,
 /// but could then differ from the rasteriser on what lies behind it.
 const NEAR_M: f32 = 1e-5;
-/// Pixels per rayon task when filling the z-buffer (whole rows, rounded down to whole tiles).
-const PIXELS_PER_TASK: usize = 2048;
+/// Pixels per rayon task when filling the z-buffer (whole tile rows, at least one): an 80 × 60
+/// frame gives 8 tasks, which two threads share evenly.
+const PIXELS_PER_TASK: usize = 640;
 /// Edge of a z-buffer tile, pixels: the unit of occlusion culling.
 const TILE: usize = 8;
 /// Unit roundoff of `f32`.
@@ -220,8 +221,8 @@ impl Setup {
 
     /// The columns of row `row` to test: the polygon's extent within the strip of rows
     /// `row ± 1`, grown by a pixel (the slack absorbs the projection's rounding; the ray test
-    /// decides), clipped to the triangle's column range.
-    #[inline]
+    /// decides), clipped to the triangle's column range. The reference for [`Setup::row_spans`].
+    #[cfg(test)]
     fn row_cols(&self, row: usize) -> Option<[usize; 2]> {
         let (a, b) = (row as f64 - 1.0, row as f64 + 1.0);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -240,9 +241,49 @@ impl Setup {
                 }
             }
         }
+        self.clip_cols(lo, hi)
+    }
+
+    /// The columns `lo ..= hi` (polygon coordinates) grown by a pixel and clipped to the triangle's.
+    #[inline(always)]
+    fn clip_cols(&self, lo: f64, hi: f64) -> Option<[usize; 2]> {
         let c0 = (floor(lo) - 1.0).max(self.cols[0] as f64);
         let c1 = (ceil(hi) + 1.0).min(self.cols[1] as f64);
         (c0 <= c1).then_some([c0 as usize, c1 as usize])
+    }
+
+    /// [`Setup::row_cols`] of the rows `rows` (at most [`TILE`]) into `spans`, each line's crossings
+    /// computed once for the two rows whose strips it bounds (row `r` uses the lines `r - 1` and
+    /// `r + 1`, the same `f64` values). The crossings are the same operations on the same operands,
+    /// and a minimum or maximum of non-NaN values does not depend on their order (the sign of a zero
+    /// is lost to the ±1 that follows), so every span is `row_cols`'s bit for bit.
+    #[inline]
+    fn row_spans(&self, rows: std::ops::Range<usize>, spans: &mut [Option<[usize; 2]>; TILE]) {
+        let poly = &self.poly[..self.n];
+        let nr = rows.len();
+        // Line `j` is `rows.start + j - 1`.
+        let mut cross = [[f64::INFINITY, f64::NEG_INFINITY]; TILE + 2];
+        for (j, c) in cross[..nr + 2].iter_mut().enumerate() {
+            let line = (rows.start + j) as f64 - 1.0;
+            for i in 0..poly.len() {
+                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                if (p[1] < line) != (q[1] < line) {
+                    let u = p[0] + (line - p[1]) / (q[1] - p[1]) * (q[0] - p[0]);
+                    *c = [c[0].min(u), c[1].max(u)];
+                }
+            }
+        }
+        for (j, (row, span)) in rows.zip(spans.iter_mut()).enumerate() {
+            let (a, b) = (row as f64 - 1.0, row as f64 + 1.0);
+            let [mut lo, mut hi] = cross[j];
+            (lo, hi) = (lo.min(cross[j + 2][0]), hi.max(cross[j + 2][1]));
+            for p in poly {
+                if p[1] >= a && p[1] <= b {
+                    (lo, hi) = (lo.min(p[0]), hi.max(p[0]));
+                }
+            }
+            *span = self.clip_cols(lo, hi);
+        }
     }
 }
 
@@ -388,18 +429,20 @@ impl MeshRaster {
         for v in sc.rays.iter_mut().chain([&mut sc.depth]) {
             v.resize(h * stride, 0.0);
         }
-        for row in 0..h {
-            let (src, at) = (&dirs[row * w..][..w], row * stride);
-            for (k, d) in src.iter().enumerate() {
-                sc.rays[0][at + k] = d.x;
-                sc.rays[1][at + k] = d.y;
-                sc.rays[2][at + k] = d.z;
+        let [xs, ys, zs] = &mut sc.rays;
+        let rows = (xs.chunks_exact_mut(stride).zip(ys.chunks_exact_mut(stride))).zip(
+            zs.chunks_exact_mut(stride)
+                .zip(sc.depth.chunks_exact_mut(stride)),
+        );
+        for (((x, y), (z, depth)), src) in rows.zip(dirs.chunks_exact(w)) {
+            for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
+                (*x, *y, *z) = (d.x, d.y, d.z);
             }
-            for v in sc.rays.iter_mut() {
-                v[at + w..at + stride].fill(0.0);
+            for v in [x, y, z] {
+                v[w..].fill(0.0);
             }
-            sc.depth[at..at + w].fill(cam.max_range);
-            sc.depth[at + w..at + stride].fill(0.0);
+            depth[..w].fill(cam.max_range);
+            depth[w..].fill(0.0);
         }
         // Rows below the image in the last tile row count as padding.
         sc.row_max.clear();
@@ -411,20 +454,31 @@ impl MeshRaster {
         sc.tile_max.resize(down * across, cam.max_range);
         let (list, order, rays) = (&sc.list, &sc.order, &sc.rays);
         let tile_rows = (PIXELS_PER_TASK / (stride * TILE)).max(1);
-        (sc.depth.par_chunks_mut(tile_rows * TILE * stride))
-            .zip(sc.row_max.par_chunks_mut(tile_rows * across))
-            .zip(sc.tile_max.par_chunks_mut(tile_rows * across))
-            .enumerate()
-            .for_each(|(task, ((depth, row_max), max))| {
-                let r0 = task * tile_rows * TILE;
-                let band = Band {
-                    r0,
-                    depth,
-                    row_max,
-                    max,
-                };
-                fill_band(list, order, rays, stride, band);
-            });
+        let (pixels, tiles) = (tile_rows * TILE * stride, tile_rows * across);
+        let fill = |(task, ((depth, row_max), max))| {
+            let r0 = task * tile_rows * TILE;
+            let band = Band {
+                r0,
+                depth,
+                row_max,
+                max,
+            };
+            fill_band(list, order, rays, stride, band);
+        };
+        // On one thread, in this one: handing a frame to a pool's worker and waiting costs wakeups.
+        if rayon::current_num_threads() > 1 {
+            (sc.depth.par_chunks_mut(pixels))
+                .zip(sc.row_max.par_chunks_mut(tiles))
+                .zip(sc.tile_max.par_chunks_mut(tiles))
+                .enumerate()
+                .for_each(&fill);
+        } else {
+            (sc.depth.chunks_mut(pixels))
+                .zip(sc.row_max.chunks_mut(tiles))
+                .zip(sc.tile_max.chunks_mut(tiles))
+                .enumerate()
+                .for_each(&fill);
+        }
         for (out, z) in range.chunks_exact_mut(w).zip(sc.depth.chunks_exact(stride)) {
             out.copy_from_slice(&z[..w]);
         }
@@ -739,12 +793,10 @@ fn fill_band(
             // This tile row's rows of the triangle, their spans and the columns they cover.
             let (ra, rb) = (a.max(r0 + ty * TILE), b.min(r0 + ty * TILE + TILE));
             let mut spans = [None; TILE];
+            s.row_spans(ra..rb, &mut spans);
             let (mut lo, mut hi) = (usize::MAX, 0);
-            for (row, span) in (ra..rb).zip(&mut spans) {
-                *span = s.row_cols(row);
-                if let Some([c0, c1]) = *span {
-                    (lo, hi) = (lo.min(c0), hi.max(c1));
-                }
+            for [c0, c1] in spans.iter().flatten() {
+                (lo, hi) = (lo.min(*c0), hi.max(*c1));
             }
             if lo > hi {
                 continue;
@@ -760,7 +812,7 @@ fn fill_band(
                     let Some([c0, c1]) = *span else {
                         continue;
                     };
-                    if c1 < at || c0 >= at + TILE {
+                    if c1 < at || c0 >= at + TILE || culls && row_max[k][row % TILE] <= s.near {
                         continue;
                     }
                     let i = row * stride + at;
@@ -868,6 +920,52 @@ mod tests {
         }
         let office = root.join("scenes/office_large.obj");
         compare_scene(&office, 4, &[(640, 480)], 99);
+    }
+
+    #[test]
+    fn row_spans_equal_row_cols() {
+        let cfg = Config::default();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut rows = 0;
+        for name in [
+            "office_large",
+            "apartment_small",
+            "floorplans/plan_052ce6767b",
+        ] {
+            let scene = crate::scene::load(&root.join(format!("scenes/{name}.obj")), &cfg.scene);
+            let scene = scene.unwrap();
+            let raster = MeshRaster::new(&scene.mesh).unwrap();
+            let (lo, hi) = scene.mesh.bounds().unwrap();
+            for (w, h) in [(80, 60), (640, 480)] {
+                let cam = RasterCamera {
+                    width: w,
+                    height: h,
+                    tan_h: 0.55,
+                    tan_v: 0.41,
+                    max_range: 5.0,
+                };
+                for _ in 0..10 {
+                    let (x, y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
+                    let yaw: f32 = rng.random_range(-3.2..3.2);
+                    let o = PVector::new(x as f32, y as f32, rng.random_range(0.0..1.5));
+                    for s in raster.gathered(&cam, o, (yaw.cos(), yaw.sin())) {
+                        // Windows of up to a tile's rows, at every offset.
+                        let start = s.rows[0] + rng.random_range(0..TILE);
+                        for a in (s.rows[0]..=s.rows[1]).step_by(TILE).chain([start]) {
+                            let b = (a + TILE).min(s.rows[1] + 1);
+                            let mut spans = [None; TILE];
+                            s.row_spans(a..b, &mut spans);
+                            for row in a..b {
+                                assert_eq!(spans[row - a], s.row_cols(row), "{name} row {row}");
+                                rows += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(rows > 10000, "{rows}");
     }
 
     #[test]
