@@ -471,7 +471,7 @@ impl MeshRaster {
                 .zip(sc.row_max.par_chunks_mut(tiles))
                 .zip(sc.tile_max.par_chunks_mut(tiles))
                 .enumerate()
-                .for_each(&fill);
+                .for_each(fill);
         } else {
             (sc.depth.chunks_mut(pixels))
                 .zip(sc.row_max.chunks_mut(tiles))
@@ -720,8 +720,8 @@ impl MeshRaster {
 /// call showed in profiles): the same value, the sign of a zero included.
 #[inline]
 fn floor(x: f64) -> f64 {
-    // From 2^52 on (and for ±∞ and NaN) `x` is its own floor; below, truncation is exact.
-    if !(x.abs() < 4503599627370496.0) {
+    // NaN, ±∞ and from 2^52 on, `x` is its own floor; below, truncation to an integer is exact.
+    if x.is_nan() || x.abs() >= 4503599627370496.0 {
         return x;
     }
     let t = x as i64 as f64;
@@ -731,7 +731,7 @@ fn floor(x: f64) -> f64 {
 /// `x.ceil()` without a libm call, as [`floor`].
 #[inline]
 fn ceil(x: f64) -> f64 {
-    if !(x.abs() < 4503599627370496.0) {
+    if x.is_nan() || x.abs() >= 4503599627370496.0 {
         return x;
     }
     let t = x as i64 as f64;
