@@ -152,12 +152,16 @@ impl DepthCamera {
     /// thread count.
     pub fn render_into(&self, raster: &MeshRaster, pose: Pose2, frame: &mut DepthFrame) {
         let (origin, sin, cos) = self.start_frame(pose, frame);
-        frame
-            .dirs
-            .par_iter_mut()
-            .zip(self.cam_dirs.par_iter())
-            .with_min_len(4096)
-            .for_each(|(dir, c)| *dir = world_dir(cos, sin, c));
+        let turn = |(dir, c): (&mut Vector3<f32>, &Vector3<f32>)| *dir = world_dir(cos, sin, c);
+        // On one thread, in this one: handing the rays to a pool's worker and waiting costs wakeups.
+        if rayon::current_num_threads() > 1 {
+            (frame.dirs.par_iter_mut())
+                .zip(self.cam_dirs.par_iter())
+                .with_min_len(4096)
+                .for_each(turn);
+        } else {
+            frame.dirs.iter_mut().zip(&self.cam_dirs).for_each(turn);
+        }
         let cam = RasterCamera {
             width: self.width,
             height: self.height,

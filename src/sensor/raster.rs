@@ -15,8 +15,9 @@
 //! testing every triangle on its whole span (the `#[cfg(test)]` reference): each triangle gets a
 //! proven lower bound on any distance its test can return, rounding included
 //! ([`MeshRaster::near_bound`]); triangles are filled in order of that bound, and a tile of 8 × 8
-//! pixels whose largest depth is already at or below it is skipped (hidden walls behind walls). The
-//! test runs on a tile row's eight pixels at once, branch-free, with the rays in coordinate arrays.
+//! pixels, or a tile's row of 8, whose largest depth is already at or below it is skipped (hidden
+//! walls behind walls; the maxima are kept exact as depths fall). The test runs on a tile row's eight
+//! pixels at once, branch-free, with the rays in coordinate arrays.
 //!
 //! Measured against [`super::MeshBvh::cast`] (`tests/raster_vs_raycast.rs`, every shipped scene and
 //! four real plans): about 0.1% of pixels differ by a few ulps (the BVH's box pruning can keep a hit
@@ -32,6 +33,7 @@ use crate::scene::TriMesh;
 use nalgebra::Vector3;
 use parry3d::math::Vector as PVector;
 use rayon::prelude::*;
+use std::sync::{Mutex, TryLockError};
 
 /// Edge of a bin of the triangle grid, metres.
 const BIN_M: f32 = 1.0;
@@ -39,8 +41,9 @@ const BIN_M: f32 = 1.0;
 /// surface nearer than this is not rendered; the caster would report it as too near (NaN) anyway,
 /// but could then differ from the rasteriser on what lies behind it.
 const NEAR_M: f32 = 1e-5;
-/// Pixels per rayon task when filling the z-buffer (whole rows, rounded down to whole tiles).
-const PIXELS_PER_TASK: usize = 2048;
+/// Pixels per rayon task when filling the z-buffer (whole tile rows, at least one): an 80 × 60
+/// frame gives 8 tasks, which two threads share evenly.
+const PIXELS_PER_TASK: usize = 640;
 /// Edge of a z-buffer tile, pixels: the unit of occlusion culling.
 const TILE: usize = 8;
 /// Unit roundoff of `f32`.
@@ -63,6 +66,23 @@ pub struct MeshRaster {
     /// Compressed rows: the triangles of bin `b` are `bin_tris[bin_start[b]..bin_start[b + 1]]`.
     bin_start: Vec<u32>,
     bin_tris: Vec<u32>,
+    /// The frame buffers, kept between frames: `render_ranges` takes `&self`, so they sit behind a
+    /// lock (uncontended in a run; a second concurrent render allocates its own).
+    scratch: Mutex<Scratch>,
+}
+
+/// The buffers of one frame, every one rewritten before it is read.
+#[derive(Default)]
+struct Scratch {
+    /// The gathered fill setups, and their (near bound, index) keys in fill order.
+    list: Vec<Setup>,
+    order: Vec<(f32, u32)>,
+    /// The pixel rays' coordinates and the z-buffer, in rows padded to whole tiles.
+    rays: [Vec<f32>; 3],
+    depth: Vec<f32>,
+    /// Per tile, the largest depth of each of its pixel rows, and of the whole tile.
+    row_max: Vec<[f32; TILE]>,
+    tile_max: Vec<f32>,
 }
 
 /// A triangle's shape in `f64`, from its ray-test form `(v0, e1, e2)`.
@@ -202,8 +222,8 @@ impl Setup {
 
     /// The columns of row `row` to test: the polygon's extent within the strip of rows
     /// `row ± 1`, grown by a pixel (the slack absorbs the projection's rounding; the ray test
-    /// decides), clipped to the triangle's column range.
-    #[inline]
+    /// decides), clipped to the triangle's column range. The reference for [`Setup::row_spans`].
+    #[cfg(test)]
     fn row_cols(&self, row: usize) -> Option<[usize; 2]> {
         let (a, b) = (row as f64 - 1.0, row as f64 + 1.0);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -222,9 +242,49 @@ impl Setup {
                 }
             }
         }
-        let c0 = (lo.floor() - 1.0).max(self.cols[0] as f64);
-        let c1 = (hi.ceil() + 1.0).min(self.cols[1] as f64);
+        self.clip_cols(lo, hi)
+    }
+
+    /// The columns `lo ..= hi` (polygon coordinates) grown by a pixel and clipped to the triangle's.
+    #[inline(always)]
+    fn clip_cols(&self, lo: f64, hi: f64) -> Option<[usize; 2]> {
+        let c0 = (floor(lo) - 1.0).max(self.cols[0] as f64);
+        let c1 = (ceil(hi) + 1.0).min(self.cols[1] as f64);
         (c0 <= c1).then_some([c0 as usize, c1 as usize])
+    }
+
+    /// [`Setup::row_cols`] of the rows `rows` (at most [`TILE`]) into `spans`, each line's crossings
+    /// computed once for the two rows whose strips it bounds (row `r` uses the lines `r - 1` and
+    /// `r + 1`, the same `f64` values). The crossings are the same operations on the same operands,
+    /// and a minimum or maximum of non-NaN values does not depend on their order (the sign of a zero
+    /// is lost to the ±1 that follows), so every span is `row_cols`'s bit for bit.
+    #[inline]
+    fn row_spans(&self, rows: std::ops::Range<usize>, spans: &mut [Option<[usize; 2]>; TILE]) {
+        let poly = &self.poly[..self.n];
+        let nr = rows.len();
+        // Line `j` is `rows.start + j - 1`.
+        let mut cross = [[f64::INFINITY, f64::NEG_INFINITY]; TILE + 2];
+        for (j, c) in cross[..nr + 2].iter_mut().enumerate() {
+            let line = (rows.start + j) as f64 - 1.0;
+            for i in 0..poly.len() {
+                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                if (p[1] < line) != (q[1] < line) {
+                    let u = p[0] + (line - p[1]) / (q[1] - p[1]) * (q[0] - p[0]);
+                    *c = [c[0].min(u), c[1].max(u)];
+                }
+            }
+        }
+        for (j, (row, span)) in rows.zip(spans.iter_mut()).enumerate() {
+            let (a, b) = (row as f64 - 1.0, row as f64 + 1.0);
+            let [mut lo, mut hi] = cross[j];
+            (lo, hi) = (lo.min(cross[j + 2][0]), hi.max(cross[j + 2][1]));
+            for p in poly {
+                if p[1] >= a && p[1] <= b {
+                    (lo, hi) = (lo.min(p[0]), hi.max(p[0]));
+                }
+            }
+            *span = self.clip_cols(lo, hi);
+        }
     }
 }
 
@@ -268,6 +328,7 @@ impl MeshRaster {
             bins,
             bin_start: vec![0; bins[0] * bins[1] + 1],
             bin_tris: Vec::new(),
+            scratch: Mutex::default(),
         };
         // Counting sort of (bin, triangle) pairs into compressed rows, triangles ascending per bin.
         let ranges: Vec<[[usize; 2]; 2]> = raster
@@ -346,49 +407,93 @@ impl MeshRaster {
     ) {
         let (w, h) = (cam.width, cam.height);
         debug_assert_eq!(dirs.len(), w * h);
-        let list = self.gather(cam, origin, (cos, sin));
+        let mut own = Scratch::default();
+        let mut lock = self.scratch.try_lock();
+        let sc: &mut Scratch = match &mut lock {
+            Ok(guard) => guard,
+            // Every buffer is rewritten before it is read: a panic mid-frame leaves nothing stale.
+            Err(TryLockError::Poisoned(p)) => p.get_mut(),
+            Err(TryLockError::WouldBlock) => &mut own,
+        };
+        self.gather(cam, origin, (cos, sin), &mut sc.list);
         // Front to back: near surfaces fill the z-buffer before the ones behind them are tested.
         // Ties in gather order: a hit at ±0 comes only from an unbounded triangle (bound -∞), and
         // the first of those in gather order must keep the sign of its zero, as in the reference.
-        let mut order: Vec<(f32, u32)> = (list.iter().enumerate())
-            .map(|(i, s)| (s.near, i as u32))
-            .collect();
-        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let order: Vec<&Setup> = order.iter().map(|&(_, i)| &list[i as usize]).collect();
-        let list: &[&Setup] = &order;
+        sc.order.clear();
+        (sc.order).extend(sc.list.iter().enumerate().map(|(i, s)| (s.near, i as u32)));
+        (sc.order).sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Rays and z-buffer in rows padded to whole tiles, the rays' coordinates in separate arrays:
         // the ray test then runs on a tile row's pixels at once. Padding rays are zero (no hit) and
         // padding depths zero (they never raise a tile's maximum).
         let stride = w.div_ceil(TILE) * TILE;
-        let mut rays = [
-            vec![0.0f32; h * stride],
-            vec![0.0; h * stride],
-            vec![0.0; h * stride],
-        ];
-        let mut zbuf = vec![0.0f32; h * stride];
-        for row in 0..h {
-            let (src, dst) = (&dirs[row * w..][..w], row * stride);
-            for (k, d) in src.iter().enumerate() {
-                rays[0][dst + k] = d.x;
-                rays[1][dst + k] = d.y;
-                rays[2][dst + k] = d.z;
-            }
-            zbuf[dst..dst + w].fill(cam.max_range);
+        let (across, down) = (stride / TILE, h.div_ceil(TILE));
+        for v in sc.rays.iter_mut().chain([&mut sc.depth]) {
+            v.resize(h * stride, 0.0);
         }
-        let rows_per_task = (PIXELS_PER_TASK / stride / TILE * TILE).max(TILE);
-        zbuf.par_chunks_mut(rows_per_task * stride)
-            .enumerate()
-            .for_each(|(task, band)| {
-                fill_band(list, &rays, stride, task * rows_per_task, band);
-            });
-        for (out, z) in range.chunks_exact_mut(w).zip(zbuf.chunks_exact(stride)) {
+        let [xs, ys, zs] = &mut sc.rays;
+        let rows = (xs.chunks_exact_mut(stride).zip(ys.chunks_exact_mut(stride))).zip(
+            zs.chunks_exact_mut(stride)
+                .zip(sc.depth.chunks_exact_mut(stride)),
+        );
+        for (((x, y), (z, depth)), src) in rows.zip(dirs.chunks_exact(w)) {
+            for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
+                (*x, *y, *z) = (d.x, d.y, d.z);
+            }
+            for v in [x, y, z] {
+                v[w..].fill(0.0);
+            }
+            depth[..w].fill(cam.max_range);
+            depth[w..].fill(0.0);
+        }
+        // Rows below the image in the last tile row count as padding.
+        sc.row_max.clear();
+        sc.row_max.extend((0..down * across).map(|k| {
+            let rows = h - k / across * TILE;
+            std::array::from_fn(|r| if r < rows { cam.max_range } else { 0.0 })
+        }));
+        sc.tile_max.clear();
+        sc.tile_max.resize(down * across, cam.max_range);
+        let (list, order, rays) = (&sc.list, &sc.order, &sc.rays);
+        let tile_rows = (PIXELS_PER_TASK / (stride * TILE)).max(1);
+        let (pixels, tiles) = (tile_rows * TILE * stride, tile_rows * across);
+        let fill = |(task, ((depth, row_max), max))| {
+            let r0 = task * tile_rows * TILE;
+            let band = Band {
+                r0,
+                depth,
+                row_max,
+                max,
+            };
+            fill_band(list, order, rays, stride, band);
+        };
+        // On one thread, in this one: handing a frame to a pool's worker and waiting costs wakeups.
+        if rayon::current_num_threads() > 1 {
+            (sc.depth.par_chunks_mut(pixels))
+                .zip(sc.row_max.par_chunks_mut(tiles))
+                .zip(sc.tile_max.par_chunks_mut(tiles))
+                .enumerate()
+                .for_each(fill);
+        } else {
+            (sc.depth.chunks_mut(pixels))
+                .zip(sc.row_max.chunks_mut(tiles))
+                .zip(sc.tile_max.chunks_mut(tiles))
+                .enumerate()
+                .for_each(&fill);
+        }
+        for (out, z) in range.chunks_exact_mut(w).zip(sc.depth.chunks_exact(stride)) {
             out.copy_from_slice(&z[..w]);
         }
     }
 
     /// The fill setups of the triangles in the frustum, in bin order.
-    fn gather(&self, cam: &RasterCamera, origin: PVector, (cos, sin): (f32, f32)) -> Vec<Setup> {
-        let mut list = Vec::with_capacity(256);
+    fn gather(
+        &self,
+        cam: &RasterCamera,
+        origin: PVector,
+        (cos, sin): (f32, f32),
+        list: &mut Vec<Setup>,
+    ) {
+        list.clear();
         let [qx, qy] = self.query_bins(origin, (cos, sin), cam);
         for by in qy[0]..=qy[1] {
             for bx in qx[0]..=qx[1] {
@@ -407,6 +512,13 @@ impl MeshRaster {
                 }
             }
         }
+    }
+
+    /// [`MeshRaster::gather`] into a new list.
+    #[cfg(test)]
+    fn gathered(&self, cam: &RasterCamera, origin: PVector, axis: (f32, f32)) -> Vec<Setup> {
+        let mut list = Vec::new();
+        self.gather(cam, origin, axis, &mut list);
         list
     }
 
@@ -423,7 +535,7 @@ impl MeshRaster {
     ) {
         let w = cam.width;
         range.fill(cam.max_range);
-        for s in &self.gather(cam, origin, (cos, sin)) {
+        for s in &self.gathered(cam, origin, (cos, sin)) {
             for row in s.rows[0]..=s.rows[1] {
                 let Some([c0, c1]) = s.row_cols(row) else {
                     continue;
@@ -540,8 +652,8 @@ impl MeshRaster {
         }
         // One pixel of slack absorbs the rounding of the projection; the ray test decides.
         let span = |lo: f64, hi: f64, n: usize| -> Option<[usize; 2]> {
-            let a = (lo.floor() - 1.0).max(0.0);
-            let b = (hi.ceil() + 1.0).min(n as f64 - 1.0);
+            let a = (floor(lo) - 1.0).max(0.0);
+            let b = (ceil(hi) + 1.0).min(n as f64 - 1.0);
             (a <= b).then_some([a as usize, b as usize])
         };
         let cols = span(u0, u1, cam.width)?;
@@ -605,94 +717,120 @@ impl MeshRaster {
     }
 }
 
-/// The z-buffer's tile maxima for one row band, recomputed lazily after a tile's pixels change.
-struct Tiles {
-    max: Vec<f32>,
-    dirty: Vec<bool>,
-    /// Tiles per row.
-    across: usize,
+/// `x.floor()` without a libm call (the default x86-64 target has no rounding instruction, and the
+/// call showed in profiles): the same value, the sign of a zero included.
+#[inline]
+fn floor(x: f64) -> f64 {
+    // NaN, ±∞ and from 2^52 on, `x` is its own floor; below, truncation to an integer is exact.
+    if x.is_nan() || x.abs() >= 4503599627370496.0 {
+        return x;
+    }
+    let t = x as i64 as f64;
+    (if t > x { t - 1.0 } else { t }).copysign(x)
 }
 
-impl Tiles {
-    fn new(w: usize, rows: usize) -> Tiles {
-        let across = w.div_ceil(TILE);
-        let n = across * rows.div_ceil(TILE);
-        Tiles {
-            max: vec![0.0; n],
-            dirty: vec![true; n],
-            across,
-        }
+/// `x.ceil()` without a libm call, as [`floor`].
+#[inline]
+fn ceil(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= 4503599627370496.0 {
+        return x;
     }
-
-    /// The largest value in tile `(ty, tx)` of `band` (`w` pixels a row).
-    #[inline]
-    fn max(&mut self, band: &[f32], w: usize, ty: usize, tx: usize) -> f32 {
-        let k = ty * self.across + tx;
-        if self.dirty[k] {
-            let rows = band.len() / w;
-            let (c0, c1) = (tx * TILE, (tx * TILE + TILE).min(w));
-            let mut m = f32::NEG_INFINITY;
-            for row in ty * TILE..(ty * TILE + TILE).min(rows) {
-                for &z in &band[row * w + c0..row * w + c1] {
-                    m = m.max(z);
-                }
-            }
-            self.max[k] = m;
-            self.dirty[k] = false;
-        }
-        self.max[k]
-    }
+    let t = x as i64 as f64;
+    (if t < x { t + 1.0 } else { t }).copysign(x)
 }
 
-/// Fills the z-buffer rows `r0..` held in `band` (`stride` pixels a row, a multiple of [`TILE`])
-/// with the triangles of `list`, in order, for the pixel rays `rays` (coordinate arrays of the whole
+/// The largest of a tile row's depths (never NaN).
+#[inline(always)]
+fn lanes_max(v: &[f32; TILE]) -> f32 {
+    let m: [f32; 4] = std::array::from_fn(|k| v[k].max(v[k + 4]));
+    m[0].max(m[2]).max(m[1].max(m[3]))
+}
+
+/// One task's share of the z-buffer: whole tile rows from image row `r0` (a multiple of [`TILE`]).
+struct Band<'a> {
+    r0: usize,
+    /// The z-buffer's rows.
+    depth: &'a mut [f32],
+    /// Per tile of the band, the largest depth of each pixel row, and of the tile: kept exact as
+    /// the depths change (one tile row's maximum costs a few lane-wise operations).
+    row_max: &'a mut [[f32; TILE]],
+    max: &'a mut [f32],
+}
+
+/// Fills `band` of the z-buffer (`stride` pixels a row, a multiple of [`TILE`]) with the triangles
+/// `list[order[..].1]`, in that order, for the pixel rays `rays` (coordinate arrays of the whole
 /// image, rows of `stride`). A triangle whose near bound is at least every depth in a tile cannot win
 /// a pixel there (its test returns no less than the bound, and a pixel keeps only a strictly nearer
-/// hit), so that tile is skipped.
-fn fill_band(list: &[&Setup], rays: &[Vec<f32>; 3], stride: usize, r0: usize, band: &mut [f32]) {
-    let r1 = r0 + band.len() / stride; // exclusive
-    let mut tiles = Tiles::new(stride, r1 - r0);
-    // Tiles the current triangle lowered, marked for recomputation once it is done: until then their
-    // stale maxima are upper bounds, which keeps the culling conservative, and are not recomputed
-    // row after row.
-    let mut changed_tiles = Vec::new();
-    for s in list {
-        for k in changed_tiles.drain(..) {
-            tiles.dirty[k] = true;
-        }
+/// hit), so that tile is skipped, and a tile row whose tiles are all skipped costs no spans. Within
+/// a triangle each pixel is tested once, so the order of its tiles does not matter.
+fn fill_band(
+    list: &[Setup],
+    order: &[(f32, u32)],
+    rays: &[Vec<f32>; 3],
+    stride: usize,
+    band: Band,
+) {
+    let Band {
+        r0,
+        depth,
+        row_max,
+        max,
+    } = band;
+    let across = stride / TILE;
+    let r1 = r0 + depth.len() / stride; // exclusive
+    for &(_, i) in order {
+        let s = &list[i as usize];
         let (a, b) = (s.rows[0].max(r0), (s.rows[1] + 1).min(r1));
         if a >= b {
             continue;
         }
         let culls = s.near > f32::NEG_INFINITY;
         let (tx0, tx1) = (s.cols[0] / TILE, s.cols[1] / TILE);
-        if culls {
-            let (ty0, ty1) = ((a - r0) / TILE, (b - 1 - r0) / TILE);
-            let hidden = (ty0..=ty1)
-                .all(|ty| (tx0..=tx1).all(|tx| tiles.max(band, stride, ty, tx) <= s.near));
-            if hidden {
+        for ty in (a - r0) / TILE..=(b - 1 - r0) / TILE {
+            let first = ty * across;
+            if culls && max[first + tx0..=first + tx1].iter().all(|&m| m <= s.near) {
                 continue;
             }
-        }
-        for row in a..b {
-            let Some([c0, c1]) = s.row_cols(row) else {
+            // This tile row's rows of the triangle, their spans and the columns they cover.
+            let (ra, rb) = (a.max(r0 + ty * TILE), b.min(r0 + ty * TILE + TILE));
+            let mut spans = [None; TILE];
+            s.row_spans(ra..rb, &mut spans);
+            let (mut lo, mut hi) = (usize::MAX, 0);
+            for [c0, c1] in spans.iter().flatten() {
+                (lo, hi) = (lo.min(*c0), hi.max(*c1));
+            }
+            if lo > hi {
                 continue;
-            };
-            let ty = (row - r0) / TILE;
-            for tx in c0 / TILE..=c1 / TILE {
-                if culls && tiles.max(band, stride, ty, tx) <= s.near {
+            }
+            for tx in lo / TILE..=hi / TILE {
+                let k = first + tx;
+                if culls && max[k] <= s.near {
                     continue;
                 }
                 let at = tx * TILE;
-                let i = row * stride + at;
-                let lanes = |k: usize| -> &[f32; TILE] { rays[k][i..i + TILE].try_into().unwrap() };
-                let ray = [lanes(0), lanes(1), lanes(2)];
-                let depth = (&mut band[(row - r0) * stride + at..][..TILE])
-                    .try_into()
-                    .unwrap();
-                let (lo, hi) = (c0.max(at) - at, c1.min(at + TILE - 1) - at);
-                if s.test_lanes(ray, depth, lo, hi) {
-                    changed_tiles.push(ty * tiles.across + tx);
+                let mut changed = false;
+                for (row, span) in (ra..rb).zip(&spans) {
+                    let Some([c0, c1]) = *span else {
+                        continue;
+                    };
+                    if c1 < at || c0 >= at + TILE || culls && row_max[k][row % TILE] <= s.near {
+                        continue;
+                    }
+                    let i = row * stride + at;
+                    let lanes =
+                        |k: usize| -> &[f32; TILE] { rays[k][i..i + TILE].try_into().unwrap() };
+                    let ray = [lanes(0), lanes(1), lanes(2)];
+                    let d: &mut [f32; TILE] = (&mut depth[(row - r0) * stride + at..][..TILE])
+                        .try_into()
+                        .unwrap();
+                    let (l, h) = (c0.max(at) - at, c1.min(at + TILE - 1) - at);
+                    if s.test_lanes(ray, &mut *d, l, h) {
+                        row_max[k][row % TILE] = lanes_max(d);
+                        changed = true;
+                    }
+                }
+                if changed {
+                    max[k] = lanes_max(&row_max[k]);
                 }
             }
         }
@@ -786,6 +924,80 @@ mod tests {
     }
 
     #[test]
+    fn row_spans_equal_row_cols() {
+        let cfg = Config::default();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut rows = 0;
+        for name in [
+            "office_large",
+            "apartment_small",
+            "floorplans/plan_052ce6767b",
+        ] {
+            let scene = crate::scene::load(&root.join(format!("scenes/{name}.obj")), &cfg.scene);
+            let scene = scene.unwrap();
+            let raster = MeshRaster::new(&scene.mesh).unwrap();
+            let (lo, hi) = scene.mesh.bounds().unwrap();
+            for (w, h) in [(80, 60), (640, 480)] {
+                let cam = RasterCamera {
+                    width: w,
+                    height: h,
+                    tan_h: 0.55,
+                    tan_v: 0.41,
+                    max_range: 5.0,
+                };
+                for _ in 0..10 {
+                    let (x, y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
+                    let yaw: f32 = rng.random_range(-3.2..3.2);
+                    let o = PVector::new(x as f32, y as f32, rng.random_range(0.0..1.5));
+                    for s in raster.gathered(&cam, o, (yaw.cos(), yaw.sin())) {
+                        // Windows of up to a tile's rows, at every offset.
+                        let start = s.rows[0] + rng.random_range(0..TILE);
+                        for a in (s.rows[0]..=s.rows[1]).step_by(TILE).chain([start]) {
+                            let b = (a + TILE).min(s.rows[1] + 1);
+                            let mut spans = [None; TILE];
+                            s.row_spans(a..b, &mut spans);
+                            for row in a..b {
+                                assert_eq!(spans[row - a], s.row_cols(row), "{name} row {row}");
+                                rows += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(rows > 10000, "{rows}");
+    }
+
+    #[test]
+    fn floor_and_ceil_are_libms_bit_for_bit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e-300, -1e-300];
+        xs.extend([
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+            f64::MIN,
+            9.1e15,
+            -9.1e15,
+        ]);
+        for e in [52, 53, 62, 63, 64] {
+            let p = 2f64.powi(e);
+            xs.extend([p, -p, p - 0.5, 0.5 - p, p + 1.0, -p - 1.0]);
+        }
+        for _ in 0..100_000 {
+            let scale = 10f64.powi(rng.random_range(-3..8));
+            xs.push(rng.random_range(-1.0..1.0) * scale);
+            xs.push(rng.random_range(-40i32..40) as f64 + [0.0, 0.5, 1e-9][rng.random_range(0..3)]);
+        }
+        for x in xs {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "floor({x})");
+            assert_eq!(ceil(x).to_bits(), x.ceil().to_bits(), "ceil({x})");
+        }
+        assert!(floor(f64::NAN).is_nan() && ceil(f64::NAN).is_nan());
+    }
+
+    #[test]
     fn near_bounds_hold_for_every_pixel_and_are_tight_on_walls() {
         // Two walls one behind the other: the faces are bounded at their true distances, less a
         // hair of slack, so the far wall is culled behind the near one.
@@ -800,7 +1012,7 @@ mod tests {
             max_range: 5.0,
         };
         let raster = MeshRaster::new(&mesh).unwrap();
-        let near: Vec<f32> = (raster.gather(&cam, PVector::new(0.0, 0.0, 0.6), (1.0, 0.0)))
+        let near: Vec<f32> = (raster.gathered(&cam, PVector::new(0.0, 0.0, 0.6), (1.0, 0.0)))
             .iter()
             .map(|s| s.near)
             .collect();
@@ -822,7 +1034,7 @@ mod tests {
                 let (x, y) = (rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y));
                 let frame = camera.render(&raster, Pose2::new(x, y, rng.random_range(-3.2..3.2)));
                 let o = PVector::new(frame.origin.x, frame.origin.y, frame.origin.z);
-                for s in raster.gather(&cam, o, (frame.axis.x, frame.axis.y)) {
+                for s in raster.gathered(&cam, o, (frame.axis.x, frame.axis.y)) {
                     bounded += usize::from(s.near > 0.0);
                     for &d in &frame.dirs {
                         if let Some(t) = s.test(d, f32::INFINITY) {
