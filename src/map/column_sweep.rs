@@ -20,8 +20,8 @@
 //! - where a ray of the column crosses a grid line of one axis, its position along the other axis
 //!   (bounded for all the rays at once with their extreme slopes): then all rays cross the lines in
 //!   the same order, the path of cells is shared;
-//! - each ray's end: against the cell lines before and after it and, in height, against the layer
-//!   boundaries (the grid's bottom and top faces end the walk, they are not steps);
+//! - each ray's end: against the cell lines around it and, in height, against the layer boundaries
+//!   (the grid's faces end the walk, they are not steps); there only that ray is walked on its own;
 //! - the top and bottom rays of each run where they cross a cell line. A ray inside a run may cross
 //!   a cell line at a layer boundary, where the walk could take either voxel; its neighbours in the
 //!   run cross that line more than 4·[`TIE_M`] above and below it (checked at the first line, the
@@ -29,15 +29,17 @@
 //!
 //! Rays are in one run only while their heights at every line that both cross differ by less than a
 //! voxel (rows ended between them, invalid readings and coarse cameras split runs). Heights must
-//! rise strictly from the bottom row up along every line. On the shipped scenes about 0.1 % of the
-//! columns are walked ray by ray (see the test `column_sweep_equals_the_voxel_walk_on_real_scenes`
-//! in `occupancy.rs`). Grids of more than 64 layers, frames whose ray count is not width × height,
-//! and origins outside the grid are walked ray by ray.
+//! rise strictly from the bottom row up along every line. A ray that ends within TIE_M of a cell
+//! line or a layer boundary (a wall or a table top on a voxel boundary) is left out of the sweep and
+//! walked on its own: about 0.3 % of the rays on the shipped scenes, where no whole column was given
+//! up (see the test `column_sweep_equals_the_voxel_walk_on_real_scenes` in `occupancy.rs`). Grids
+//! of more than 64 layers, frames whose ray count is not width × height, and origins outside the
+//! grid are walked ray by ray.
 //!
 //! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
-use super::occupancy::{clip_to_grid, floor_i64};
+use super::occupancy::{clip_to_grid_inv, floor_i64};
 use crate::grid::GridSpec;
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
@@ -47,7 +49,7 @@ pub(super) const TIE_M: f64 = 1e-9;
 
 /// A column the sweep cannot vouch for: walk its rays one by one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Ambiguous(pub u32);
+pub(super) struct Ambiguous;
 
 /// No ray (end of a linked list).
 const NONE: u32 = u32::MAX;
@@ -58,6 +60,9 @@ pub(super) struct Sweep<'a> {
     frame: &'a DepthFrame,
     o: [f64; 3],
     lo: [f64; 2],
+    inv_res: f64,
+    /// Twice TIE_M, in cells.
+    tie: f64,
     dims: [i64; 2],
     /// The origin's floor cell and layer.
     cell: [i64; 2],
@@ -67,20 +72,14 @@ pub(super) struct Sweep<'a> {
 /// One valid ray of the column being swept.
 #[derive(Clone, Copy, Debug, Default)]
 struct Ray {
-    /// 1 / direction, x and y.
-    inv: [f64; 2],
     /// Rise per metre along x and along y (dz/dx, dz/dy).
     w: [f64; 2],
     /// |displacement| along x and y at its end.
     reach: [f64; 2],
-    dz: f64,
-    /// Where its walk ends (its range, or the maximum range, clipped to the grid).
-    t1: f64,
-    /// The step of the path in which it ends, and the layer.
+    /// The step of the path in which it ends, and the floor cell and layer.
     end: u32,
+    end_cell: u32,
     end_layer: u32,
-    /// Its index in the frame.
-    index: u32,
 }
 
 /// A floor cell of the column's path and the grid line by which the rays leave it.
@@ -89,8 +88,6 @@ struct Step {
     cell: usize,
     axis: usize,
     line: f64,
-    /// The line is the grid's face: no cell beyond.
-    exit: bool,
 }
 
 /// Neighbouring rays (indices into the column's rays, linked) that enter a cell within the layers
@@ -132,7 +129,11 @@ fn span(a: usize, b: usize) -> u64 {
 impl<'a> Sweep<'a> {
     /// The sweep of `frame`'s columns, or `None` where it does not apply to the frame (see the
     /// module's docs).
-    pub fn new(grid: &'a GridSpec, frame: &'a DepthFrame, origin: Point3<f64>) -> Option<Sweep<'a>> {
+    pub fn new(
+        grid: &'a GridSpec,
+        frame: &'a DepthFrame,
+        origin: Point3<f64>,
+    ) -> Option<Sweep<'a>> {
         let n = frame.width.checked_mul(frame.height)?;
         if !(1..=64).contains(&grid.nz) || n != frame.dirs.len() || n != frame.range.len() {
             return None;
@@ -154,37 +155,56 @@ impl<'a> Sweep<'a> {
             frame,
             o: [origin.x, origin.y, origin.z],
             lo: [grid.origin_x, grid.origin_y],
+            inv_res: 1.0 / res,
+            tie: 2.0 * TIE_M / res,
             dims: [grid.nx as i64, grid.ny as i64],
             cell: [ix, iy],
             layer: iz as usize,
         })
     }
 
-    /// The layer of height `z` on a ray's way, or `Ambiguous` within TIE_M of a boundary between two
-    /// layers (the grid's bottom and top faces end the walk: no tie there).
+    /// The cell (along one axis: x, y or z) of coordinate `x` on a ray's way, of a grid of `len`
+    /// cells from `lo`; `Ambiguous` within TIE_M of a line between two cells (the grid's faces end
+    /// the walk: no tie there, and a point a rounding beyond one is in the cell inside).
     #[inline(always)]
-    fn layer(&self, z: f64) -> Result<usize, Ambiguous> {
-        let res = self.grid.res;
-        let nz = self.grid.nz as i64;
-        let l = floor_i64(z / res);
-        let base = l as f64 * res;
-        if (l >= 1 && l < nz && z - base < TIE_M) || (l + 1 >= 1 && l + 1 < nz && base + res - z < TIE_M)
+    fn cell_along(&self, x: f64, lo: f64, len: usize) -> Result<i64, Ambiguous> {
+        let len = len as i64;
+        // In cells. Its rounding (under 1e-11 cells on any grid that fits in memory) is far
+        // below the tie width.
+        let u = (x - lo) * self.inv_res;
+        let l = floor_i64(u);
+        let frac = u - l as f64;
+        if (frac < self.tie && l >= 1 && l < len)
+            || (frac > 1.0 - self.tie && l >= 0 && l + 1 < len)
         {
-            return Err(Ambiguous(line!()));
+            return Err(Ambiguous);
         }
-        Ok(l.clamp(0, nz - 1) as usize)
+        Ok(l.clamp(0, len - 1))
     }
 
-    /// Sweeps pixel column `col`: on `Ok`, `s.marks` holds the voxels that its rays pass, the same
-    /// as `traverse` gives ray by ray (rays with an invalid range skipped, no-hit rays to the
-    /// maximum range).
+    /// The layer of height `z` on a ray's way (see [`Sweep::cell_along`]).
+    #[inline(always)]
+    fn layer(&self, z: f64) -> Result<usize, Ambiguous> {
+        self.cell_along(z, 0.0, self.grid.nz).map(|l| l as usize)
+    }
+
+    /// Sweeps pixel column `col`: on `Ok`, `s.marks` holds the voxels that its rays pass, save the
+    /// rays listed in `s.singles` (to be walked one by one), the same as `traverse` gives ray by
+    /// ray (rays with an invalid range skipped, no-hit rays to the maximum range).
     pub fn column(&self, col: usize, s: &mut Scratch) -> Result<(), Ambiguous> {
         s.marks.clear();
         s.singles.clear();
         let (grid, f, o) = (self.grid, self.frame, self.o);
         let res = grid.res;
         let origin = Point3::new(o[0], o[1], o[2]);
+        // The rays, with where they end. A ray that ends within TIE_M of a cell line or a layer
+        // boundary, as rays that hit a wall or a table top on a voxel boundary do, is walked on its
+        // own instead. Per axis: the common sign of the rays' directions (0: none crosses its lines)
+        // and the extreme slopes of the other coordinate.
         s.rays.clear();
+        let mut sgn = [2i64; 2];
+        let mut slope = [(f64::INFINITY, f64::NEG_INFINITY); 2];
+        let mut steps = 0usize;
         for row in 0..f.height {
             let i = row * f.width + col;
             let range = f.range[i];
@@ -197,61 +217,60 @@ impl<'a> Sweep<'a> {
                 f.max_range
             };
             let dir = f.dirs[i].cast::<f64>();
-            let Some((t0, t1)) = clip_to_grid(grid, origin, dir, t_end as f64) else {
+            let d = [dir.x, dir.y, dir.z];
+            let inv = d.map(|x| 1.0 / x);
+            let Some((t0, t1)) = clip_to_grid_inv(grid, origin, dir, inv, t_end as f64) else {
                 continue; // the walk visits nothing
             };
-            let d = [dir.x, dir.y, dir.z];
             if t0 != 0.0 || (d[0] == 0.0 && d[1] == 0.0) {
-                return Err(Ambiguous(line!()));
+                return Err(Ambiguous);
             }
-            let inv = [1.0 / d[0], 1.0 / d[1]];
+            for a in 0..2 {
+                let sign = (d[a] > 0.0) as i64 - (d[a] < 0.0) as i64;
+                if sgn[a] != sign {
+                    if sgn[a] != 2 {
+                        return Err(Ambiguous);
+                    }
+                    sgn[a] = sign;
+                }
+                if sign != 0 {
+                    // d_b / d_a
+                    let sl = d[1 - a] * inv[a];
+                    slope[a] = (slope[a].0.min(sl), slope[a].1.max(sl));
+                }
+            }
+            let end = [o[0] + d[0] * t1, o[1] + d[1] * t1, o[2] + d[2] * t1];
+            let (Ok(ix), Ok(iy), Ok(iz)) = (
+                self.cell_along(end[0], self.lo[0], grid.nx),
+                self.cell_along(end[1], self.lo[1], grid.ny),
+                self.layer(end[2]),
+            ) else {
+                s.singles.push(i);
+                continue;
+            };
+            // One line crossed per step of the path.
+            let j = (ix - self.cell[0]).unsigned_abs() + (iy - self.cell[1]).unsigned_abs();
+            steps = steps.max(j as usize + 1);
             s.rays.push(Ray {
-                inv,
                 w: [d[2] * inv[0], d[2] * inv[1]],
                 reach: [(t1 * d[0]).abs(), (t1 * d[1]).abs()],
-                dz: d[2],
-                t1,
-                end: 0,
-                end_layer: 0,
-                index: i as u32,
+                end: j as u32,
+                end_layer: iz as u32,
+                end_cell: (iy * self.dims[0] + ix) as u32,
             });
         }
-        let rays = &mut s.rays;
+        let rays = &s.rays;
         let m = rays.len();
         if m == 0 {
             return Ok(());
         }
-        // Per axis: the common sign of the rays' direction (0: none crosses its lines), the smallest
-        // difference in rise between neighbouring rays, the extreme slopes of the other coordinate,
-        // and how far any ray gets along it.
-        let mut sgn = [0i64; 2];
-        let mut slope = [(f64::INFINITY, f64::NEG_INFINITY); 2];
-        let mut reach = [0.0f64; 2];
-        for a in 0..2 {
-            let sign = |r: &Ray| {
-                let x = r.inv[a];
-                (x > 0.0 && x.is_finite()) as i64 - (x < 0.0 && x.is_finite()) as i64
-            };
-            sgn[a] = sign(&rays[0]);
-            if rays.iter().any(|r| sign(r) != sgn[a]) {
-                return Err(Ambiguous(line!()));
-            }
-            if sgn[a] == 0 {
-                continue;
-            }
-            for r in rays.iter() {
-                // d_b / d_a = inv_a / inv_b.
-                let sl = r.inv[a] / r.inv[1 - a];
-                slope[a] = (slope[a].0.min(sl), slope[a].1.max(sl));
-                reach[a] = reach[a].max(r.reach[a]);
-            }
-        }
-        // The path of floor cells, each left by the line that every ray crosses first.
+        // The path of floor cells, each left by the line that every ray crosses first, up to the
+        // last cell a ray ends in.
         s.path.clear();
         let mut idx = self.cell;
         // Per axis, the distance to the first line crossed.
         let mut first = [f64::INFINITY; 2];
-        loop {
+        while s.path.len() < steps {
             let mut line = [0.0f64; 2];
             let mut dist = [0.0f64; 2];
             for a in 0..2 {
@@ -278,58 +297,24 @@ impl<'a> Sweep<'a> {
                 } else if past_lo > TIE_M {
                     1
                 } else {
-                    return Err(Ambiguous(line!()));
+                    return Err(Ambiguous);
                 }
             };
             first[a] = first[a].min(dist[a].abs());
-            let cell = (idx[1] * self.dims[0] + idx[0]) as usize;
-            idx[a] += sgn[a];
-            let exit = idx[a] < 0 || idx[a] >= self.dims[a];
             s.path.push(Step {
-                cell,
+                cell: (idx[1] * self.dims[0] + idx[0]) as usize,
                 axis: a,
                 line: line[a],
-                exit,
             });
-            if exit || dist[a].abs() > reach[a] {
-                break;
-            }
+            idx[a] += sgn[a];
         }
         let path = &s.path;
-        let steps = path.len();
-        // The step and layer each ray ends in. A ray that ends within TIE_M of a cell line (before
-        // or after it; a grid face ends it) or of a layer boundary, as rays that hit a wall or a
-        // table top on a voxel boundary do, is walked on its own instead.
-        let searchable = if path[steps - 1].exit {
-            steps - 1
-        } else {
-            steps
-        };
-        let t_out = |r: &Ray, st: &Step| (st.line - o[st.axis]) * r.inv[st.axis];
-        let mut kept = 0;
-        for k in 0..m {
-            let mut r = rays[k];
-            let j = path[..searchable].partition_point(|st| t_out(&r, st) < r.t1);
-            if j == steps {
-                return Err(Ambiguous(line!()));
-            }
-            let layer = self.layer(o[2] + r.dz * r.t1);
-            if layer.is_err()
-                || (j < searchable && t_out(&r, &path[j]) - r.t1 < TIE_M)
-                || (j > 0 && r.t1 - t_out(&r, &path[j - 1]) < TIE_M)
-            {
-                s.singles.push(r.index as usize);
-                continue;
-            }
-            r.end = j as u32;
-            r.end_layer = layer.unwrap_or(0) as u32;
-            rays[kept] = r;
-            kept += 1;
-        }
-        rays.truncate(kept);
-        let m = kept;
-        if m == 0 {
-            return Ok(());
+        // Every ray ends in a cell of the path (else its own path is another).
+        if rays
+            .iter()
+            .any(|r| path[r.end as usize].cell != r.end_cell as usize)
+        {
+            return Err(Ambiguous);
         }
         // Heights along a line rise strictly from each ray to the one above it, and neighbours are
         // far enough apart where they cross a line (nearest at the first line).
@@ -340,13 +325,14 @@ impl<'a> Sweep<'a> {
             let mut min_dw = f64::INFINITY;
             for k in 1..m {
                 let dw = (rays[k - 1].w[a] - rays[k].w[a]) * sgn[a] as f64;
-                if !(dw > 0.0) {
-                    return Err(Ambiguous(line!()));
+                // (Also NaN.)
+                if dw.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    return Err(Ambiguous);
                 }
                 min_dw = min_dw.min(dw);
             }
             if m > 1 && min_dw * first[a] <= 4.0 * TIE_M {
-                return Err(Ambiguous(line!()));
+                return Err(Ambiguous);
             }
         }
         s.start.clear();
@@ -379,7 +365,8 @@ impl<'a> Sweep<'a> {
         s.prev.clear();
         s.prev.extend((0..m as u32).map(|k| k.wrapping_sub(1)));
         s.next.clear();
-        s.next.extend((1..=m as u32).map(|k| if k as usize == m { NONE } else { k }));
+        s.next
+            .extend((1..=m as u32).map(|k| if k as usize == m { NONE } else { k }));
         s.runs.clear();
         let mut top = 0u32;
         for k in 1..m as u32 {
@@ -449,7 +436,7 @@ impl<'a> Sweep<'a> {
                         let b = if g < s.gaps.len() { s.gaps[g] } else { bottom };
                         // Every ray ends by the path's last step.
                         if j + 1 == steps {
-                            return Err(Ambiguous(line!()));
+                            return Err(Ambiguous);
                         }
                         let lt = self.layer(z_out(t))?;
                         let lb = if b == t { lt } else { self.layer(z_out(b))? };
@@ -477,6 +464,6 @@ impl<'a> Sweep<'a> {
                 return Ok(());
             }
         }
-        Err(Ambiguous(line!()))
+        Err(Ambiguous)
     }
 }

@@ -1,7 +1,7 @@
 //! The map: 3D occupancy voxels and the 2D layers derived from them, updated one depth frame at a time.
 
-pub(crate) mod layers;
 mod column_sweep;
+pub(crate) mod layers;
 pub(crate) mod occupancy;
 
 pub use layers::{CellState, FrontierSegment, Layers};
