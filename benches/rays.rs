@@ -50,6 +50,22 @@ fn rays(c: &mut Criterion) {
                 map.integrate(&frame).touched_columns
             })
         });
+        // Integration alone, of frames rendered beforehand from the same circle of poses.
+        let frames: Vec<DepthFrame> = (0..32)
+            .map(|i| {
+                let a = i as f64 * 0.37;
+                let pose = Pose2::new(4.0 + 1.5 * a.cos(), 4.0 + 1.5 * (0.7 * a).sin(), a * 1.3);
+                cam.render(&raster, pose)
+            })
+            .collect();
+        let mut map = Map::new(grid, &cfg);
+        let mut i = 0usize;
+        g.bench_function("integrate", |b| {
+            b.iter(|| {
+                i += 1;
+                map.integrate(&frames[i % frames.len()]).touched_columns
+            })
+        });
         let mut map = Map::new(grid, &cfg);
         g.bench_function("render_and_integrate", |b| {
             b.iter(|| {

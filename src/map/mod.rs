@@ -1,5 +1,6 @@
 //! The map: 3D occupancy voxels and the 2D layers derived from them, updated one depth frame at a time.
 
+mod column_sweep;
 pub(crate) mod layers;
 pub(crate) mod occupancy;
 
