@@ -185,8 +185,8 @@ impl ObservableSet {
 /// the mesh's first hit, found without the tree.
 struct VoxelCaster<'a> {
     grid: &'a GridSpec,
-    /// The triangles of every occupied voxel, dense: voxel `v`'s are `tris[starts[v]..starts[v + 1]]`
-    /// (the lists of `GroundTruth::voxel_triangles`, indexed without a search).
+    /// The triangles of every occupied voxel, dense (the lists of `GroundTruth::voxel_triangles`,
+    /// indexed without a search).
     tris: TriangleIndex,
     bvh: &'a MeshBvh,
     /// The height band `[z_lo, z_hi)`, metres.
@@ -204,23 +204,36 @@ struct TriangleIndex {
     occupied: Vec<bool>,
     /// Per floor cell, its occupied layers, one bit each (empty when the grid has over 64 layers).
     layers: Vec<u64>,
-    starts: Vec<u32>,
+    /// Voxel `v`'s triangles are `tris[spans[v].0..spans[v].1]`. Equal lists are stored once, so
+    /// two non-empty lists are equal exactly when they start at the same place (see [`ListId`]).
+    spans: Vec<(u32, u32)>,
     tris: Vec<u32>,
 }
+
+/// Which triangle list a ray tested last: the start of a non-empty list of [`TriangleIndex`], or
+/// `NO_LIST`. Testing the same list again cannot change the ray's nearest hit (a minimum over the
+/// same triangles), so the sweep skips it: a ray that found a hit beyond a wall voxel meets the same
+/// wall faces in the next voxel most of the time.
+type ListId = u32;
+const NO_LIST: ListId = u32::MAX;
 
 impl TriangleIndex {
     fn new(gt: &GroundTruth, lists: &VoxelTriangles) -> TriangleIndex {
         let n = gt.grid.voxels();
-        let mut starts = Vec::with_capacity(n + 1);
+        let mut spans = vec![(0u32, 0u32); n];
         let mut tris = Vec::new();
+        let mut stored: std::collections::HashMap<&[u32], (u32, u32)> = Default::default();
         let occupied: Vec<bool> = (0..n).map(|v| gt.occupied(v)).collect();
         for (v, &occ) in occupied.iter().enumerate() {
-            starts.push(tris.len() as u32);
-            if occ {
-                tris.extend_from_slice(lists.of(v));
+            let list = lists.of(v);
+            if occ && !list.is_empty() {
+                spans[v] = *stored.entry(list).or_insert_with(|| {
+                    let start = tris.len() as u32;
+                    tris.extend_from_slice(list);
+                    (start, tris.len() as u32)
+                });
             }
         }
-        starts.push(tris.len() as u32);
         let grid = &gt.grid;
         let mut layers = Vec::new();
         if grid.nz <= 64 {
@@ -233,14 +246,26 @@ impl TriangleIndex {
         TriangleIndex {
             occupied,
             layers,
-            starts,
+            spans,
             tris,
         }
     }
 
     #[inline]
     fn of(&self, v: usize) -> &[u32] {
-        &self.tris[self.starts[v] as usize..self.starts[v + 1] as usize]
+        let (a, b) = self.spans[v];
+        &self.tris[a as usize..b as usize]
+    }
+
+    /// The [`ListId`] of voxel `v`'s list (`NO_LIST` when it is empty).
+    #[inline]
+    fn list_id(&self, v: usize) -> ListId {
+        let (a, b) = self.spans[v];
+        if a < b {
+            a
+        } else {
+            NO_LIST
+        }
     }
 }
 
@@ -413,8 +438,9 @@ struct PathCell {
 /// Scratch space of one worker of the sweep.
 #[derive(Default)]
 struct SweepScratch {
-    /// Per ray of the column, its nearest hit so far (infinity until it enters an occupied voxel).
-    best: Vec<f64>,
+    /// Per ray of the column, its nearest hit so far (infinity until it enters an occupied voxel)
+    /// and the triangle list it tested last.
+    best: Vec<(f64, ListId)>,
     path: Vec<PathCell>,
     marks: Vec<(usize, u64)>,
     buf: Vec<usize>,
@@ -744,7 +770,7 @@ impl VoxelCaster<'_> {
         origin: Point3<f32>,
         shape: &ColumnShape,
         rays: &[ColumnRay],
-        best: &mut Vec<f64>,
+        best: &mut Vec<(f64, ListId)>,
         path: &mut Vec<PathCell>,
         marks: &mut Vec<(usize, u64)>,
     ) -> std::result::Result<(), Ambiguous> {
@@ -763,7 +789,7 @@ impl VoxelCaster<'_> {
             occ_mask,
         } = *shape;
         best.clear();
-        best.resize(n, f64::INFINITY);
+        best.resize(n, (f64::INFINITY, NO_LIST));
         // The floor cells of the path, leaving each by its nearer grid line.
         path.clear();
         let cell_of = |a: usize| floor_i64((o[a] - lo[a]) / res);
@@ -886,7 +912,7 @@ impl VoxelCaster<'_> {
             // One ray through this cell's layers, voxel by voxel, with observe's rule for hits.
             // Returns whether the ray stops here.
             let walk = |k: usize,
-                        best_k: &mut f64,
+                        best_k: &mut (f64, ListId),
                         here: &mut u64,
                         marks: &mut Vec<(usize, u64)>| {
                 let ray = &rays[k];
@@ -896,12 +922,12 @@ impl VoxelCaster<'_> {
                 let l0 = layer(z_at(ray, t0), false)?;
                 let l1 = layer(z_at(ray, t_end), clamped)?;
                 let up = ray.d[2] > 0.0;
-                if *best_k == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
+                if best_k.0 == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
                     // No occupied voxel on the way through this cell: all its layers, no hit.
                     *here |= span(l0, l1);
                     return Ok(ends);
                 }
-                let mut best = *best_k;
+                let (mut best, mut tested) = *best_k;
                 let mut l = l0;
                 let mut stopped = false;
                 let mut mask = 0u64;
@@ -928,7 +954,11 @@ impl VoxelCaster<'_> {
                         (z - o[2]) * ray.inv[2]
                     };
                     if self.tris.occupied[v] {
-                        best = best.min(self.hit_in(v, origin, ray.dir));
+                        let id = self.tris.list_id(v);
+                        if id != tested {
+                            best = best.min(self.hit_in(v, origin, ray.dir));
+                            tested = id;
+                        }
                     }
                     if best <= tv_in {
                         stopped = true;
@@ -945,7 +975,7 @@ impl VoxelCaster<'_> {
                     l = if up { l + 1 } else { l - 1 };
                 }
                 *here |= mask;
-                *best_k = best;
+                *best_k = (best, tested);
                 let done = stopped || ends;
                 if done && best.is_finite() {
                     if best < self.range.0 as f64 {
@@ -1016,7 +1046,7 @@ impl VoxelCaster<'_> {
                         k_m &= k_m - 1;
                         if walk(k, &mut best[k], &mut here, marks)? {
                             stopped |= 1 << k;
-                        } else if best[k].is_finite() {
+                        } else if best[k].0.is_finite() {
                             runs &= !(1 << k);
                             single |= 1 << k;
                         }
