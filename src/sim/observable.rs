@@ -1008,13 +1008,24 @@ impl VoxelCaster<'_> {
                     stopped |= 1 << k;
                 }
             }
+            // Runs still to do, as (first, last) rows. A run whose cover meets an occupied voxel but
+            // also spans free layers is split in halves, each a run of its own: the part of a run
+            // that passes above or below a table top or a door's lintel is marked as a run too, and
+            // only the rays near the occupied layers are walked one by one.
+            let mut todo = [(0usize, 0usize); 16];
+            let mut pending = 0;
             let mut m = runs;
-            while m != 0 {
-                let a = m.trailing_zeros() as usize;
-                let len = (!(m >> a)).trailing_zeros() as usize;
-                let b = a + len - 1;
+            while m != 0 || pending > 0 {
+                let (a, b) = if pending > 0 {
+                    pending -= 1;
+                    todo[pending]
+                } else {
+                    let a = m.trailing_zeros() as usize;
+                    let len = (!(m >> a)).trailing_zeros() as usize;
+                    m &= !span(a, a + len - 1);
+                    (a, a + len - 1)
+                };
                 let run = span(a, b);
-                m &= !run;
                 // The run's lowest and highest points: its top and bottom rays, and rays ending here.
                 let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
                 let (mut c_min, mut c_max) = (false, false);
@@ -1039,6 +1050,11 @@ impl VoxelCaster<'_> {
                 let cover = span(la, lb);
                 if cover & occ & occ_mask == 0 {
                     here |= cover;
+                } else if b - a >= 3 && cover & occ_mask & !occ != 0 && pending + 2 <= todo.len() {
+                    let mid = (a + b) / 2;
+                    todo[pending] = (mid + 1, b);
+                    todo[pending + 1] = (a, mid);
+                    pending += 2;
                 } else {
                     let mut k_m = run;
                     while k_m != 0 {
