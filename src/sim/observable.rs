@@ -29,11 +29,13 @@
 //! that tests the triangles of each occupied voxel it enters. The set is computed faster, with the
 //! same result, by sweeping each pixel column's rays together through the floor cells they share
 //! (`VoxelCaster::sweep_column`): a run of rays that meets no occupied voxel in a cell marks one span
-//! of layers there, and single rays are walked only where they meet occupied voxels. A column where
-//! some distance falls within 1e-9 m of a voxel boundary (where rounding could decide the map's walk)
-//! is walked ray by ray instead (about 0.3 % of the columns on the shipped scenes). A test checks the
-//! two ways bit for bit; cameras of more than 64 rows or grids of more than 64 layers use the
-//! reference walk only.
+//! of layers there, and single rays are walked only where they meet occupied voxels (a run that also
+//! spans free layers is split, so that only its rays near the occupied ones are; a ray does not test
+//! again the triangle list it has just tested; a column's rays and shape checks, the same at every
+//! position since the camera height is, are set up once per heading). A column where some distance
+//! falls within 1e-9 m of a voxel boundary (where rounding could decide the map's walk) is walked ray
+//! by ray instead (about 0.3 % of the columns on the shipped scenes). Tests check the two ways bit for
+//! bit; cameras of more than 64 rows or grids of more than 64 layers use the reference walk only.
 //!
 //! **Cost and cache.** This costs seconds, so [`ObservableCache`] keeps one file per scene and the
 //! config keys the set depends on, written atomically and checked on read (length, key and
