@@ -531,13 +531,13 @@ mod tests {
                 let (mut radix, mut heap) = (RadixQueue::default(), BinaryHeap::new());
                 let mut last = 0.0f32;
                 for _ in 0..2000 {
-                    if rng.random_bool(0.55) {
+                    if rng.gen_bool(0.55) {
                         let g = if monotone {
-                            last + rng.random_range(0.1f32..3.0)
+                            last + rng.gen_range(0.1f32..3.0)
                         } else {
-                            rng.random_range(0.0f32..50.0)
+                            rng.gen_range(0.0f32..50.0)
                         };
-                        let e = Entry::new(g, rng.random_range(0..100_000));
+                        let e = Entry::new(g, rng.gen_range(0..100_000));
                         radix.push(e);
                         heap.push(e);
                     } else {
