@@ -53,88 +53,6 @@ impl PartialOrd for Entry {
 /// The search state of one cell, 8 bytes so that the neighbour checks of a search stay in cache.
 /// Generations are even: `stamp` equals the query's generation once the cell is reached (and `g`
 /// is valid), and the generation + 1 once it is settled.
-/// A min-queue of [`Entry`]s that pops them in exactly the order a binary heap would (smallest
-/// key first), for Dijkstra, whose keys only grow: every entry pushed costs more than the one just
-/// popped (steps cost at least `res` > 0). A radix heap (Ahuja et al., 1990): an entry sits in the
-/// bucket of the highest bit where its key differs from the last key popped, so only the lowest
-/// non-empty bucket is ever scanned and each entry moves down a few times at most, instead of
-/// `log n` sift steps through a heap that does not fit the cache. A key at or below the last popped
-/// one (a zero-cost step, which the search's cost rule rules out) is still handled: bucket 0 holds
-/// such keys and gives up its smallest first, so the order is exact for any pushes.
-#[derive(Clone)]
-struct RadixQueue {
-    last: u64,
-    len: usize,
-    buckets: [Vec<u64>; 65],
-}
-
-impl Default for RadixQueue {
-    fn default() -> Self {
-        RadixQueue {
-            last: 0,
-            len: 0,
-            buckets: std::array::from_fn(|_| Vec::new()),
-        }
-    }
-}
-
-impl RadixQueue {
-    fn clear(&mut self) {
-        for b in &mut self.buckets {
-            b.clear();
-        }
-        self.last = 0;
-        self.len = 0;
-    }
-
-    fn bucket(&self, key: u64) -> usize {
-        if key <= self.last {
-            0
-        } else {
-            64 - (key ^ self.last).leading_zeros() as usize
-        }
-    }
-
-    fn push(&mut self, e: Entry) {
-        let b = self.bucket(e.0);
-        self.buckets[b].push(e.0);
-        self.len += 1;
-    }
-
-    fn pop(&mut self) -> Option<Entry> {
-        if self.len == 0 {
-            return None;
-        }
-        if self.buckets[0].is_empty() {
-            // Every key in the lowest non-empty bucket is below those of higher buckets: its
-            // minimum becomes `last`, and its keys spread over lower buckets relative to it.
-            let i = (1..65)
-                .find(|&i| !self.buckets[i].is_empty())
-                .expect("a non-empty queue has a non-empty bucket");
-            let moved = std::mem::take(&mut self.buckets[i]);
-            self.last = *moved.iter().min().expect("non-empty bucket");
-            for &k in &moved {
-                let b = self.bucket(k);
-                self.buckets[b].push(k);
-            }
-            // Keep the bucket's allocation for later rounds.
-            self.buckets[i] = moved;
-            self.buckets[i].clear();
-        }
-        let zero = &mut self.buckets[0];
-        // Bucket 0 holds keys equal to `last` (any of them is the minimum), or, after pushes at or
-        // below it, smaller ones too: take the smallest.
-        let k = zero
-            .iter()
-            .enumerate()
-            .min_by_key(|&(_, &k)| k)
-            .map(|(i, _)| i)
-            .expect("bucket 0 is non-empty");
-        self.len -= 1;
-        Some(Entry(zero.swap_remove(k)))
-    }
-}
-
 #[derive(Clone, Copy)]
 struct NodeState {
     stamp: u32,
@@ -158,10 +76,7 @@ pub struct Search {
     /// Per-cell parent on the best path found (valid where the state is reached); apart from the
     /// state because only improvements write it.
     parent: Vec<u32>,
-    /// A*'s queue (its priorities f = g + h may repeat the last one popped).
     heap: BinaryHeap<Entry>,
-    /// Dijkstra's queue (its priorities g only grow: see [`RadixQueue`]).
-    radix: RadixQueue,
     /// Number of A* queries answered, for reports.
     pub astar_calls: u64,
 }
@@ -231,7 +146,6 @@ impl Search {
             ],
             parent: vec![u32::MAX; n],
             heap: BinaryHeap::new(),
-            radix: RadixQueue::default(),
             astar_calls: 0,
         }
     }
@@ -279,13 +193,12 @@ impl Search {
     /// because a diagonal is entered only when both orthogonal neighbours beside it are open (no
     /// corner cutting), which also keeps it on the grid. The order of relaxation does not matter:
     /// each neighbour is a different cell and the heap orders entries by (priority, cell).
-    fn expand<Q>(
+    fn expand(
         &mut self,
         grid: &GridSpec,
         cost: &impl Fn(usize) -> Option<f32>,
         at: usize,
-        queue: &mut Q,
-        mut push: impl FnMut(&mut Q, usize, f32),
+        mut push: impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
         let nx = grid.nx;
         let (x, y) = (at % nx, at / nx);
@@ -309,7 +222,7 @@ impl Search {
             }
             if let Some(m) = cost(ni) {
                 ortho[k] = ni;
-                self.relax(at, ni, g_at + m * straight, queue, &mut push);
+                self.relax(at, ni, g_at + m * straight, &mut push);
             }
         }
         for (a, b) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
@@ -319,7 +232,7 @@ impl Search {
             }
             let ni = na + nb - at;
             if let Some(m) = cost(ni) {
-                self.relax(at, ni, g_at + m * diagonal, queue, &mut push);
+                self.relax(at, ni, g_at + m * diagonal, &mut push);
             }
         }
     }
@@ -327,20 +240,19 @@ impl Search {
     /// Lowers the g of `ni` (reached from `at`) to `g_new` if that improves it and `ni` is not
     /// settled yet.
     #[inline]
-    fn relax<Q>(
+    fn relax(
         &mut self,
         at: usize,
         ni: usize,
         g_new: f32,
-        queue: &mut Q,
-        push: &mut impl FnMut(&mut Q, usize, f32),
+        push: &mut impl FnMut(&mut BinaryHeap<Entry>, usize, f32),
     ) {
         let s = self.state[ni];
         if s.stamp == self.generation + 1 || (s.stamp == self.generation && g_new >= s.g) {
             return;
         }
         self.reach(ni, g_new, at);
-        push(queue, ni, g_new);
+        push(&mut self.heap, ni, g_new);
     }
 
     /// Least-cost 8-connected path from `start` to `goal` under `cost` (see the module doc).
@@ -366,25 +278,20 @@ impl Search {
             res * (dx.max(dy) + (SQRT2 - 1.0) * dx.min(dy))
         };
         self.reach(start, 0.0, start);
-        // The queue is taken out of the workspace while the search borrows the rest of it.
-        let mut heap = std::mem::take(&mut self.heap);
-        heap.push(Entry::new(heuristic(start), start));
-        let mut found = None;
-        while let Some(entry) = heap.pop() {
+        self.heap.push(Entry::new(heuristic(start), start));
+        while let Some(entry) = self.heap.pop() {
             let at = entry.cell();
             if !self.settle(at) {
                 continue;
             }
             if at == goal {
-                found = Some(self.extract(grid, start, goal));
-                break;
+                return Some(self.extract(grid, start, goal));
             }
-            self.expand(grid, &cost, at, &mut heap, |heap, ni, g| {
+            self.expand(grid, &cost, at, |heap, ni, g| {
                 heap.push(Entry::new(g + heuristic(ni), ni))
             });
         }
-        self.heap = heap;
-        found
+        None
     }
 
     fn extract(&self, grid: &GridSpec, start: usize, goal: usize) -> GridPath {
@@ -411,10 +318,8 @@ impl Search {
     ) {
         self.begin(grid);
         self.reach(source, 0.0, source);
-        let mut queue = std::mem::take(&mut self.radix);
-        queue.clear();
-        queue.push(Entry::new(0.0, source));
-        while let Some(entry) = queue.pop() {
+        self.heap.push(Entry::new(0.0, source));
+        while let Some(entry) = self.heap.pop() {
             // Every entry left is at least as costly, stale or not.
             if entry.priority() > max_cost {
                 break;
@@ -426,11 +331,8 @@ impl Search {
             if on_settle(at, self.state[at].g, self.parent[at]) {
                 break;
             }
-            self.expand(grid, cost, at, &mut queue, |q, ni, g| {
-                q.push(Entry::new(g, ni))
-            });
+            self.expand(grid, cost, at, |heap, ni, g| heap.push(Entry::new(g, ni)));
         }
-        self.radix = queue;
     }
 
     /// Dijkstra least-cost field from `source` under `cost` (the source need not be enterable),
@@ -520,43 +422,6 @@ mod tests {
     use nalgebra::Point2;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    /// The radix queue pops the same keys in the same order as the binary heap, for Dijkstra's
-    /// growing keys and for arbitrary ones (pushes below the last pop), interleaved with pops.
-    #[test]
-    fn radix_queue_pops_in_binary_heap_order() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        for monotone in [true, false] {
-            for _ in 0..50 {
-                let (mut radix, mut heap) = (RadixQueue::default(), BinaryHeap::new());
-                let mut last = 0.0f32;
-                for _ in 0..2000 {
-                    if rng.gen_bool(0.55) {
-                        let g = if monotone {
-                            last + rng.gen_range(0.1f32..3.0)
-                        } else {
-                            rng.gen_range(0.0f32..50.0)
-                        };
-                        let e = Entry::new(g, rng.gen_range(0..100_000));
-                        radix.push(e);
-                        heap.push(e);
-                    } else {
-                        let (a, b) = (radix.pop(), heap.pop());
-                        assert!(a == b, "radix and heap disagree");
-                        if let Some(e) = a {
-                            last = e.priority();
-                        }
-                    }
-                }
-                while let Some(e) = heap.pop() {
-                    assert!(radix.pop() == Some(e));
-                }
-                assert!(radix.pop().is_none());
-                radix.clear();
-                assert!(radix.pop().is_none());
-            }
-        }
-    }
 
     fn grid(n: usize) -> GridSpec {
         GridSpec::covering(
