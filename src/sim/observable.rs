@@ -29,13 +29,11 @@
 //! that tests the triangles of each occupied voxel it enters. The set is computed faster, with the
 //! same result, by sweeping each pixel column's rays together through the floor cells they share
 //! (`VoxelCaster::sweep_column`): a run of rays that meets no occupied voxel in a cell marks one span
-//! of layers there, and single rays are walked only where they meet occupied voxels (a run that also
-//! spans free layers is split, so that only its rays near the occupied ones are; a ray does not test
-//! again the triangle list it has just tested; a column's rays and shape checks, the same at every
-//! position since the camera height is, are set up once per heading). A column where some distance
-//! falls within 1e-9 m of a voxel boundary (where rounding could decide the map's walk) is walked ray
-//! by ray instead (about 0.3 % of the columns on the shipped scenes). Tests check the two ways bit for
-//! bit; cameras of more than 64 rows or grids of more than 64 layers use the reference walk only.
+//! of layers there, and single rays are walked only where they meet occupied voxels. A column where
+//! some distance falls within 1e-9 m of a voxel boundary (where rounding could decide the map's walk)
+//! is walked ray by ray instead (about 0.3 % of the columns on the shipped scenes). A test checks the
+//! two ways bit for bit; cameras of more than 64 rows or grids of more than 64 layers use the
+//! reference walk only.
 //!
 //! **Cost and cache.** This costs seconds, so [`ObservableCache`] keeps one file per scene and the
 //! config keys the set depends on, written atomically and checked on read (length, key and
@@ -187,8 +185,8 @@ impl ObservableSet {
 /// the mesh's first hit, found without the tree.
 struct VoxelCaster<'a> {
     grid: &'a GridSpec,
-    /// The triangles of every occupied voxel, dense (the lists of `GroundTruth::voxel_triangles`,
-    /// indexed without a search).
+    /// The triangles of every occupied voxel, dense: voxel `v`'s are `tris[starts[v]..starts[v + 1]]`
+    /// (the lists of `GroundTruth::voxel_triangles`, indexed without a search).
     tris: TriangleIndex,
     bvh: &'a MeshBvh,
     /// The height band `[z_lo, z_hi)`, metres.
@@ -206,36 +204,23 @@ struct TriangleIndex {
     occupied: Vec<bool>,
     /// Per floor cell, its occupied layers, one bit each (empty when the grid has over 64 layers).
     layers: Vec<u64>,
-    /// Voxel `v`'s triangles are `tris[spans[v].0..spans[v].1]`. Equal lists are stored once, so
-    /// two non-empty lists are equal exactly when they start at the same place (see [`ListId`]).
-    spans: Vec<(u32, u32)>,
+    starts: Vec<u32>,
     tris: Vec<u32>,
 }
-
-/// Which triangle list a ray tested last: the start of a non-empty list of [`TriangleIndex`], or
-/// `NO_LIST`. Testing the same list again cannot change the ray's nearest hit (a minimum over the
-/// same triangles), so the sweep skips it: a ray that found a hit beyond a wall voxel meets the same
-/// wall faces in the next voxel most of the time.
-type ListId = u32;
-const NO_LIST: ListId = u32::MAX;
 
 impl TriangleIndex {
     fn new(gt: &GroundTruth, lists: &VoxelTriangles) -> TriangleIndex {
         let n = gt.grid.voxels();
-        let mut spans = vec![(0u32, 0u32); n];
+        let mut starts = Vec::with_capacity(n + 1);
         let mut tris = Vec::new();
-        let mut stored: std::collections::HashMap<&[u32], (u32, u32)> = Default::default();
         let occupied: Vec<bool> = (0..n).map(|v| gt.occupied(v)).collect();
         for (v, &occ) in occupied.iter().enumerate() {
-            let list = lists.of(v);
-            if occ && !list.is_empty() {
-                spans[v] = *stored.entry(list).or_insert_with(|| {
-                    let start = tris.len() as u32;
-                    tris.extend_from_slice(list);
-                    (start, tris.len() as u32)
-                });
+            starts.push(tris.len() as u32);
+            if occ {
+                tris.extend_from_slice(lists.of(v));
             }
         }
+        starts.push(tris.len() as u32);
         let grid = &gt.grid;
         let mut layers = Vec::new();
         if grid.nz <= 64 {
@@ -248,26 +233,14 @@ impl TriangleIndex {
         TriangleIndex {
             occupied,
             layers,
-            spans,
+            starts,
             tris,
         }
     }
 
     #[inline]
     fn of(&self, v: usize) -> &[u32] {
-        let (a, b) = self.spans[v];
-        &self.tris[a as usize..b as usize]
-    }
-
-    /// The [`ListId`] of voxel `v`'s list (`NO_LIST` when it is empty).
-    #[inline]
-    fn list_id(&self, v: usize) -> ListId {
-        let (a, b) = self.spans[v];
-        if a < b {
-            a
-        } else {
-            NO_LIST
-        }
+        &self.tris[self.starts[v] as usize..self.starts[v + 1] as usize]
     }
 }
 
@@ -378,13 +351,6 @@ fn floor_i64(x: f64) -> i64 {
     t - (x < t as f64) as i64
 }
 
-/// The layers `a..=b` (or `b..=a`), one bit each.
-#[inline(always)]
-fn layer_span(a: usize, b: usize) -> u64 {
-    let (a, b) = (a.min(b), a.max(b));
-    (u64::MAX >> (63 - b)) & (u64::MAX << a)
-}
-
 /// One ray of a pixel column during a sweep (see [`VoxelCaster::sweep_column`]).
 #[derive(Clone, Copy, Debug, Default)]
 struct ColumnRay {
@@ -399,29 +365,8 @@ struct ColumnRay {
     z_clamped: bool,
     /// `t1` times the ray's horizontal length: how far from the camera, on the floor, it ends.
     h1: f64,
-}
-
-/// What the sweep of one pixel column at one heading needs that does not depend on where the camera
-/// stands: every sample position has the camera at the same height, so a column's rays, their walk
-/// limits and the checks on their shape are computed once per heading and column, not per frame.
-struct Column {
-    rays: Vec<ColumnRay>,
-    /// The column's shape, or `Ambiguous` when the sweep cannot decide it from any position.
-    shape: std::result::Result<ColumnShape, Ambiguous>,
-}
-
-/// The position-independent part of [`VoxelCaster::sweep_column`]'s set-up.
-#[derive(Clone, Copy, Debug)]
-struct ColumnShape {
-    /// The reference horizontal direction (the middle row's), unit length.
-    u: [f64; 2],
-    /// How far along a grid line of axis `a` a ray may cross it from where the reference ray does,
-    /// per metre from the camera.
-    drift: [f64; 2],
-    /// The farthest any ray ends from the camera, on the floor.
-    h_max: f64,
-    /// The layers whose occupied voxels make a run be walked ray by ray.
-    occ_mask: u64,
+    /// Nearest hit found so far (infinity until the ray has entered an occupied voxel).
+    best: f64,
 }
 
 /// One floor cell of a pixel column's path: the cell, and the grid line the path leaves it by.
@@ -440,9 +385,7 @@ struct PathCell {
 /// Scratch space of one worker of the sweep.
 #[derive(Default)]
 struct SweepScratch {
-    /// Per ray of the column, its nearest hit so far (infinity until it enters an occupied voxel)
-    /// and the triangle list it tested last.
-    best: Vec<(f64, ListId)>,
+    rays: Vec<ColumnRay>,
     path: Vec<PathCell>,
     marks: Vec<(usize, u64)>,
     buf: Vec<usize>,
@@ -451,7 +394,6 @@ struct SweepScratch {
 }
 
 /// A pixel column's walk found a case it does not decide exactly: walk its rays one by one.
-#[derive(Clone, Copy, Debug)]
 struct Ambiguous;
 
 impl VoxelCaster<'_> {
@@ -542,7 +484,8 @@ impl VoxelCaster<'_> {
         let grid = self.grid;
         let cells = grid.cells();
         let min_beyond = min_beyond_voxels(grid);
-        let columns = self.columns(camera, yaws);
+        let (w, h) = camera.image_size();
+        let dirs = camera.camera_dirs();
         let (seen, looked_beyond, by_rays) = positions
             .par_iter()
             .fold(
@@ -558,33 +501,36 @@ impl VoxelCaster<'_> {
                     let c = grid.center(grid.cell(cell));
                     let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
                     sc.beyond.clear();
-                    for column in &columns {
-                        sc.marks.clear();
-                        let swept = column.shape.and_then(|shape| {
-                            self.sweep_column(
+                    for &(sin, cos) in yaws {
+                        for u in 0..w {
+                            let column = (0..h).map(|k| world_ray(sin, cos, &dirs[k * w + u]));
+                            sc.rays.clear();
+                            sc.rays
+                                .extend(column.map(|dir| self.column_ray(origin, dir)));
+                            sc.marks.clear();
+                            let swept = self.sweep_column(
                                 origin,
-                                &shape,
-                                &column.rays,
-                                &mut sc.best,
+                                &mut sc.rays,
                                 &mut sc.path,
                                 &mut sc.marks,
-                            )
-                        });
-                        if swept.is_ok() {
-                            for &(c, m) in &sc.marks {
-                                seen[c] |= m;
-                                if beyond[c] {
-                                    sc.beyond.push((c, m));
-                                }
-                            }
-                        } else {
-                            by_rays += 1;
-                            for ray in &column.rays {
-                                for &v in self.observe(origin, ray.dir, &mut sc.buf) {
-                                    let (c, iz) = grid.voxel_parts(v);
-                                    seen[c] |= 1 << iz;
+                            );
+                            if swept.is_ok() {
+                                for &(c, m) in &sc.marks {
+                                    seen[c] |= m;
                                     if beyond[c] {
-                                        sc.beyond.push((c, 1 << iz));
+                                        sc.beyond.push((c, m));
+                                    }
+                                }
+                            } else {
+                                by_rays += 1;
+                                for k in 0..h {
+                                    let dir = sc.rays[k].dir;
+                                    for &v in self.observe(origin, dir, &mut sc.buf) {
+                                        let (c, iz) = grid.voxel_parts(v);
+                                        seen[c] |= 1 << iz;
+                                        if beyond[c] {
+                                            sc.beyond.push((c, 1 << iz));
+                                        }
                                     }
                                 }
                             }
@@ -623,29 +569,11 @@ impl VoxelCaster<'_> {
         }
     }
 
-    /// The pixel columns of every heading, in the order frames are taken (heading, then column),
-    /// for a camera at its mount height.
-    fn columns(&self, camera: &DepthCamera, yaws: &[(f32, f32)]) -> Vec<Column> {
-        let (w, h) = camera.image_size();
-        let dirs = camera.camera_dirs();
-        let oz = camera.mount_height();
-        yaws.iter()
-            .flat_map(|&(sin, cos)| (0..w).map(move |u| (sin, cos, u)))
-            .map(|(sin, cos, u)| {
-                let rays: Vec<ColumnRay> = (0..h)
-                    .map(|k| self.column_ray(oz, world_ray(sin, cos, &dirs[k * w + u])))
-                    .collect();
-                let shape = self.column_shape(oz, &rays);
-                Column { rays, shape }
-            })
-            .collect()
-    }
-
     /// A ray's walk limits, as [`VoxelCaster::observe`] and the voxel walk's clip to the grid's
-    /// top and bottom faces set them, for a camera at height `oz`.
-    fn column_ray(&self, oz: f32, dir: Vector3<f32>) -> ColumnRay {
+    /// top and bottom faces set them.
+    fn column_ray(&self, origin: Point3<f32>, dir: Vector3<f32>) -> ColumnRay {
         let (min_range, max_range) = self.range;
-        let (oz, dz) = (oz as f64, dir.z as f64);
+        let (oz, dz) = (origin.z as f64, dir.z as f64);
         let leave = if dz > 0.0 {
             (self.band.1 - oz) / dz
         } else if dz < 0.0 {
@@ -671,21 +599,41 @@ impl VoxelCaster<'_> {
             t1,
             z_clamped: face <= cut,
             h1: t1 * (d[0] * d[0] + d[1] * d[1]).sqrt(),
+            best: f64::INFINITY,
         }
     }
 
-    /// The checks and constants of a column's sweep that hold wherever the camera stands at height
-    /// `oz` (see [`VoxelCaster::sweep_column`]).
-    fn column_shape(
+    /// Marks, as `(floor cell, layer mask)` pairs, the voxels that the rays of one pixel column
+    /// (top row first) make known: the same voxels as [`VoxelCaster::observe`] gives ray by ray.
+    ///
+    /// The rays of a pixel column lie in one vertical plane, so they cross the same floor cells
+    /// (checked: no ray passes a cell corner on the other side than the reference ray). In a cell,
+    /// a ray walks the layers between its heights where it enters and leaves the cell; consecutive
+    /// rows are less than a voxel apart (see [`VoxelCaster::sweep_applies`]), so a run of rays that
+    /// meets no occupied voxel in the cell makes known exactly the span of layers between its top
+    /// ray's highest point and its bottom ray's lowest one (and the lowest/highest point of a ray
+    /// that ends in the cell). Those runs cost a few operations per cell instead of a voxel walk per
+    /// ray. Where a run meets an occupied voxel, each of its rays is walked through the cell's
+    /// layers one voxel at a time, with `observe`'s rule for hits, and a ray that has found a hit
+    /// beyond the cell goes on that way. Every distance and height is computed from the ray's own
+    /// direction; where one lies within [`TIE_M`] of a voxel boundary (so that rounding could decide
+    /// which side the map's walk takes), the column is given up ([`Ambiguous`]) and walked ray by ray.
+    fn sweep_column(
         &self,
-        oz: f32,
-        rays: &[ColumnRay],
-    ) -> std::result::Result<ColumnShape, Ambiguous> {
-        let res = self.grid.res;
-        let nz = self.grid.nz;
+        origin: Point3<f32>,
+        rays: &mut [ColumnRay],
+        path: &mut Vec<PathCell>,
+        marks: &mut Vec<(usize, u64)>,
+    ) -> std::result::Result<(), Ambiguous> {
+        let grid = self.grid;
+        let res = grid.res;
+        let inv_res = 1.0 / res;
+        let nz = grid.nz;
         let n = rays.len();
-        let oz = oz as f64;
-        if !(self.band.0..self.band.1).contains(&oz) || n == 0 || n > 64 {
+        let o = [origin.x as f64, origin.y as f64, origin.z as f64];
+        let lo = [grid.origin_x, grid.origin_y];
+        let dims = [grid.nx as i64, grid.ny as i64];
+        if !(self.band.0..self.band.1).contains(&o[2]) || n == 0 || n > 64 {
             return Err(Ambiguous);
         }
         // The reference horizontal direction (the middle row's) and the largest angle to it.
@@ -720,78 +668,6 @@ impl VoxelCaster<'_> {
                 *dr = spread / slack;
             }
         }
-        // Outside the band only a ray's last voxel lies (the walk is cut where it leaves the band),
-        // and what it marks there is dropped; an occupied voxel there matters only through a hit
-        // nearer than the minimum range, impossible when the band is left beyond it. Then runs need
-        // to meet occupied voxels of the band only to be walked one by one.
-        let (z_lo, z_hi) = self.band;
-        let (mut rise, mut fall) = (0.0f64, 0.0f64);
-        for ray in rays.iter() {
-            rise = rise.max(ray.d[2]);
-            fall = fall.max(-ray.d[2]);
-        }
-        let leaves_beyond_min_range =
-            |gap: f64, speed: f64| speed <= 0.0 || gap / speed > self.range.0 as f64 + 10.0 * res;
-        let in_band = layer_span(
-            floor_i64(z_lo / res + 0.5).max(0) as usize,
-            (floor_i64(z_hi / res + 0.5) as usize).clamp(1, nz) - 1,
-        );
-        let occ_mask = if leaves_beyond_min_range(oz - z_lo, fall)
-            && leaves_beyond_min_range(z_hi - oz, rise)
-        {
-            in_band
-        } else {
-            u64::MAX
-        };
-        Ok(ColumnShape {
-            u,
-            drift,
-            h_max,
-            occ_mask,
-        })
-    }
-
-    /// Marks, as `(floor cell, layer mask)` pairs, the voxels that the rays of one pixel column
-    /// (top row first) make known: the same voxels as [`VoxelCaster::observe`] gives ray by ray.
-    ///
-    /// The rays of a pixel column lie in one vertical plane, so they cross the same floor cells
-    /// (checked: no ray passes a cell corner on the other side than the reference ray). In a cell,
-    /// a ray walks the layers between its heights where it enters and leaves the cell; consecutive
-    /// rows are less than a voxel apart (see [`VoxelCaster::sweep_applies`]), so a run of rays that
-    /// meets no occupied voxel in the cell makes known exactly the span of layers between its top
-    /// ray's highest point and its bottom ray's lowest one (and the lowest/highest point of a ray
-    /// that ends in the cell). Those runs cost a few operations per cell instead of a voxel walk per
-    /// ray. Where a run meets an occupied voxel, each of its rays is walked through the cell's
-    /// layers one voxel at a time, with `observe`'s rule for hits, and a ray that has found a hit
-    /// beyond the cell goes on that way. Every distance and height is computed from the ray's own
-    /// direction; where one lies within [`TIE_M`] of a voxel boundary (so that rounding could decide
-    /// which side the map's walk takes), the column is given up ([`Ambiguous`]) and walked ray by ray.
-    #[allow(clippy::too_many_arguments)]
-    fn sweep_column(
-        &self,
-        origin: Point3<f32>,
-        shape: &ColumnShape,
-        rays: &[ColumnRay],
-        best: &mut Vec<(f64, ListId)>,
-        path: &mut Vec<PathCell>,
-        marks: &mut Vec<(usize, u64)>,
-    ) -> std::result::Result<(), Ambiguous> {
-        let grid = self.grid;
-        let res = grid.res;
-        let inv_res = 1.0 / res;
-        let nz = grid.nz;
-        let n = rays.len();
-        let o = [origin.x as f64, origin.y as f64, origin.z as f64];
-        let lo = [grid.origin_x, grid.origin_y];
-        let dims = [grid.nx as i64, grid.ny as i64];
-        let ColumnShape {
-            u,
-            drift,
-            h_max,
-            occ_mask,
-        } = *shape;
-        best.clear();
-        best.resize(n, (f64::INFINITY, NO_LIST));
         // The floor cells of the path, leaving each by its nearer grid line.
         path.clear();
         let cell_of = |a: usize| floor_i64((o[a] - lo[a]) / res);
@@ -853,8 +729,34 @@ impl VoxelCaster<'_> {
             }
             Ok((l.max(0) as usize).min(nz - 1))
         };
-        let span = layer_span;
+        let span = |a: usize, b: usize| -> u64 {
+            let (a, b) = (a.min(b), a.max(b));
+            (u64::MAX >> (63 - b)) & (u64::MAX << a)
+        };
         let all = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
+        // Outside the band only a ray's last voxel lies (the walk is cut where it leaves the band),
+        // and what it marks there is dropped; an occupied voxel there matters only through a hit
+        // nearer than the minimum range, impossible when the band is left beyond it. Then runs need
+        // to meet occupied voxels of the band only to be walked one by one.
+        let (z_lo, z_hi) = self.band;
+        let (mut rise, mut fall) = (0.0f64, 0.0f64);
+        for ray in rays.iter() {
+            rise = rise.max(ray.d[2]);
+            fall = fall.max(-ray.d[2]);
+        }
+        let leaves_beyond_min_range =
+            |gap: f64, speed: f64| speed <= 0.0 || gap / speed > self.range.0 as f64 + 10.0 * res;
+        let in_band = span(
+            floor_i64(z_lo / res + 0.5).max(0) as usize,
+            (floor_i64(z_hi / res + 0.5) as usize).clamp(1, nz) - 1,
+        );
+        let occ_mask = if leaves_beyond_min_range(o[2] - z_lo, fall)
+            && leaves_beyond_min_range(z_hi - o[2], rise)
+        {
+            in_band
+        } else {
+            u64::MAX
+        };
         // Rays walked as runs, rays walked one by one (a hit found beyond the cell), rays not ended.
         let mut runs = all;
         let mut single = 0u64;
@@ -914,22 +816,22 @@ impl VoxelCaster<'_> {
             // One ray through this cell's layers, voxel by voxel, with observe's rule for hits.
             // Returns whether the ray stops here.
             let walk = |k: usize,
-                        best_k: &mut (f64, ListId),
+                        rays: &mut [ColumnRay],
                         here: &mut u64,
                         marks: &mut Vec<(usize, u64)>| {
-                let ray = &rays[k];
+                let ray = rays[k];
                 let ends = enders >> k & 1 == 1;
-                let t0 = t_in(ray);
-                let (t_end, clamped) = t_end(ray, ends);
-                let l0 = layer(z_at(ray, t0), false)?;
-                let l1 = layer(z_at(ray, t_end), clamped)?;
+                let t0 = t_in(&ray);
+                let (t_end, clamped) = t_end(&ray, ends);
+                let l0 = layer(z_at(&ray, t0), false)?;
+                let l1 = layer(z_at(&ray, t_end), clamped)?;
                 let up = ray.d[2] > 0.0;
-                if best_k.0 == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
+                if ray.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
                     // No occupied voxel on the way through this cell: all its layers, no hit.
                     *here |= span(l0, l1);
                     return Ok(ends);
                 }
-                let (mut best, mut tested) = *best_k;
+                let mut best = ray.best;
                 let mut l = l0;
                 let mut stopped = false;
                 let mut mask = 0u64;
@@ -956,11 +858,7 @@ impl VoxelCaster<'_> {
                         (z - o[2]) * ray.inv[2]
                     };
                     if self.tris.occupied[v] {
-                        let id = self.tris.list_id(v);
-                        if id != tested {
-                            best = best.min(self.hit_in(v, origin, ray.dir));
-                            tested = id;
-                        }
+                        best = best.min(self.hit_in(v, origin, ray.dir));
                     }
                     if best <= tv_in {
                         stopped = true;
@@ -977,7 +875,7 @@ impl VoxelCaster<'_> {
                     l = if up { l + 1 } else { l - 1 };
                 }
                 *here |= mask;
-                *best_k = (best, tested);
+                rays[k].best = best;
                 let done = stopped || ends;
                 if done && best.is_finite() {
                     if best < self.range.0 as f64 {
@@ -1006,28 +904,17 @@ impl VoxelCaster<'_> {
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
-                if walk(k, &mut best[k], &mut here, marks)? {
+                if walk(k, rays, &mut here, marks)? {
                     stopped |= 1 << k;
                 }
             }
-            // Runs still to do, as (first, last) rows. A run whose cover meets an occupied voxel but
-            // also spans free layers is split in halves, each a run of its own: the part of a run
-            // that passes above or below a table top or a door's lintel is marked as a run too, and
-            // only the rays near the occupied layers are walked one by one.
-            let mut todo = [(0usize, 0usize); 16];
-            let mut pending = 0;
             let mut m = runs;
-            while m != 0 || pending > 0 {
-                let (a, b) = if pending > 0 {
-                    pending -= 1;
-                    todo[pending]
-                } else {
-                    let a = m.trailing_zeros() as usize;
-                    let len = (!(m >> a)).trailing_zeros() as usize;
-                    m &= !span(a, a + len - 1);
-                    (a, a + len - 1)
-                };
+            while m != 0 {
+                let a = m.trailing_zeros() as usize;
+                let len = (!(m >> a)).trailing_zeros() as usize;
+                let b = a + len - 1;
                 let run = span(a, b);
+                m &= !run;
                 // The run's lowest and highest points: its top and bottom rays, and rays ending here.
                 let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
                 let (mut c_min, mut c_max) = (false, false);
@@ -1052,19 +939,14 @@ impl VoxelCaster<'_> {
                 let cover = span(la, lb);
                 if cover & occ & occ_mask == 0 {
                     here |= cover;
-                } else if b - a >= 3 && cover & occ_mask & !occ != 0 && pending + 2 <= todo.len() {
-                    let mid = (a + b) / 2;
-                    todo[pending] = (mid + 1, b);
-                    todo[pending + 1] = (a, mid);
-                    pending += 2;
                 } else {
                     let mut k_m = run;
                     while k_m != 0 {
                         let k = k_m.trailing_zeros() as usize;
                         k_m &= k_m - 1;
-                        if walk(k, &mut best[k], &mut here, marks)? {
+                        if walk(k, rays, &mut here, marks)? {
                             stopped |= 1 << k;
-                        } else if best[k].0.is_finite() {
+                        } else if rays[k].best.is_finite() {
                             runs &= !(1 << k);
                             single |= 1 << k;
                         }
@@ -1635,36 +1517,6 @@ mod tests {
             .join("scenes/floorplans/plan_a64cda6b6a.obj");
         let scene = crate::scene::load(&path, &Config::default().scene).unwrap();
         assert!(sweep_equals_rays(&scene.mesh, scene.spawn, 1.5) > 10_000);
-    }
-
-    /// The sweep (with its per-column set-up, list skipping and split runs) against the ray-by-ray
-    /// walk on every shipped scene and three real plans, on pools of 1 and 2 threads: the same bits
-    /// and the same refined positions. Positions every fourth square (2 m), to keep the reference walk
-    /// affordable.
-    #[test]
-    fn column_sweep_marks_what_rays_mark_on_real_scenes() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-        let mut paths: Vec<_> = std::fs::read_dir(&root)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|x| x == "obj"))
-            .collect();
-        paths.sort();
-        assert!(paths.len() >= 8, "{paths:?}");
-        for plan in ["plan_7fdb16a896", "plan_052ce6767b", "plan_807c123f55"] {
-            paths.push(root.join(format!("floorplans/{plan}.obj")));
-        }
-        for path in &paths {
-            let scene = crate::scene::load(path, &Config::default().scene).unwrap();
-            for threads in [1, 2] {
-                let voxels = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap()
-                    .install(|| sweep_equals_rays(&scene.mesh, scene.spawn, 2.0));
-                assert!(voxels > 10_000, "{}: {voxels}", path.display());
-            }
-        }
     }
 
     #[test]
