@@ -207,14 +207,8 @@ impl<'a> Sweep<'a> {
         let mut steps = 0usize;
         for row in 0..f.height {
             let i = row * f.width + col;
-            let range = f.range[i];
-            if range.is_nan() {
+            let Some(t_end) = f.free_length(i) else {
                 continue;
-            }
-            let t_end = if range.is_finite() {
-                range
-            } else {
-                f.max_range
             };
             let dir = f.dirs[i].cast::<f64>();
             let d = [dir.x, dir.y, dir.z];

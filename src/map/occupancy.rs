@@ -316,14 +316,8 @@ impl Occupancy {
         };
         // Traverse ray `i`.
         let walk_ray = |bits: &mut [u64], i: usize| {
-            let range = frame.range[i];
-            if range.is_nan() {
+            let Some(t_end) = frame.free_length(i) else {
                 return;
-            }
-            let t_end = if range.is_finite() {
-                range
-            } else {
-                frame.max_range
             };
             traverse(
                 &grid,
@@ -1121,13 +1115,7 @@ mod tests {
                 let scene = crate::scene::load(&path, &cfg.scene).unwrap();
                 let raster = MeshRaster::new(&scene.mesh).unwrap();
                 let (lo, hi) = scene.mesh.bounds().unwrap();
-                let m = cfg.map.margin_m;
-                let g = GridSpec::covering(
-                    Point2::new(lo.x - m, lo.y - m),
-                    Point2::new(hi.x + m, hi.y + m),
-                    cfg.map.band_max_m,
-                    cfg.map.voxel_m,
-                );
+                let g = crate::scene::ground_truth::scene_grid(&scene.mesh, &cfg).unwrap();
                 let mut rng = ChaCha8Rng::seed_from_u64(17 + s as u64);
                 let frames: Vec<DepthFrame> = (0..poses)
                     .map(|i| {

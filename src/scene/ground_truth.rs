@@ -51,20 +51,26 @@ pub struct GroundTruth {
     clearance: Vec<f32>,
 }
 
+/// The voxel grid of a scene: its mesh's xy bounds ± `map.margin_m`, up to `map.band_max_m`, at
+/// `map.voxel_m` (`None` for an empty mesh). The ground truth and the robot's map share it.
+pub fn scene_grid(mesh: &TriMesh, cfg: &Config) -> Option<GridSpec> {
+    let (min, max) = mesh.bounds()?;
+    let m = cfg.map.margin_m;
+    Some(GridSpec::covering(
+        Point2::new(min.x - m, min.y - m),
+        Point2::new(max.x + m, max.y + m),
+        cfg.map.band_max_m,
+        cfg.map.voxel_m,
+    ))
+}
+
 impl GroundTruth {
     /// Voxelises `mesh` on the grid covering its xy bounds ± `map.margin_m`, up to `map.band_max_m`,
     /// validates or chooses the spawn, and flood-fills the explorable region from it.
     pub fn build(mesh: &TriMesh, spawn: Option<Pose2>, cfg: &Config) -> Result<GroundTruth> {
-        let (min, max) = mesh
-            .bounds()
-            .ok_or_else(|| Error::Runtime("ground truth of an empty mesh".into()))?;
-        let m = cfg.map.margin_m;
-        let grid = GridSpec::covering(
-            Point2::new(min.x - m, min.y - m),
-            Point2::new(max.x + m, max.y + m),
-            cfg.map.band_max_m,
-            cfg.map.voxel_m,
-        );
+        let empty = || Error::Runtime("ground truth of an empty mesh".into());
+        let (min, max) = mesh.bounds().ok_or_else(empty)?;
+        let grid = scene_grid(mesh, cfg).ok_or_else(empty)?;
         // One byte per voxel: refuse grids that would need gigabytes rather than abort on allocation.
         const MAX_VOXELS: usize = 400_000_000;
         if grid.voxels() > MAX_VOXELS {

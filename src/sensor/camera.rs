@@ -213,6 +213,20 @@ impl DepthFrame {
             .collect()
     }
 
+    /// How far ray `i` marks space as passed: its range, or `max_range` if it hit nothing; `None` for
+    /// an invalid (NaN) reading, which is not integrated.
+    #[inline]
+    pub fn free_length(&self, i: usize) -> Option<f32> {
+        let range = self.range[i];
+        if range.is_nan() {
+            None
+        } else if range.is_finite() {
+            Some(range)
+        } else {
+            Some(self.max_range)
+        }
+    }
+
     /// Number of rays.
     pub fn len(&self) -> usize {
         self.range.len()
