@@ -486,18 +486,37 @@ impl FieldLevel {
         self.recompute(&tiles)
     }
 
-    /// Recomputes the changed tiles with a cell centre within `r` of `p` (what a reader of that disc
-    /// needs; the rest stay pending); returns how many cells it evaluated.
-    pub fn refresh_near(&mut self, p: Point2<f64>, r: f64) -> usize {
-        let tiles: Vec<usize> = self.dirty_tiles(|t| self.tile_reaches(t, p, r)).collect();
-        self.recompute(&tiles)
-    }
-
-    /// Whether no changed tile has a cell centre within `r` of `p`.
-    pub fn is_fresh_near(&self, p: Point2<f64>, r: f64) -> bool {
-        self.dirty_tiles(|t| self.tile_reaches(t, p, r))
-            .next()
-            .is_none()
+    /// Recomputes the changed tiles that may hold a cell centre within `r` (per axis) of one of
+    /// `points`; returns how many tiles it recomputed (0: every such tile was up to date).
+    pub fn refresh_along(&mut self, points: impl Iterator<Item = Point2<f64>>, r: f64) -> usize {
+        let s = self.grid.spec;
+        let tiles_y = s.ny.div_ceil(TILE);
+        let last = |v: i32, n: usize| (v.max(0) as usize).min(n - 1);
+        let mut tiles = Vec::new();
+        for p in points {
+            // A centre within `r` lies in a cell between those holding `p - r` and `p + r`.
+            let (lo, hi) = (s.cell_at(p.x - r, p.y - r), s.cell_at(p.x + r, p.y + r));
+            if hi.x < 0 || hi.y < 0 || lo.x >= s.nx as i32 || lo.y >= s.ny as i32 {
+                continue;
+            }
+            let (x0, x1) = (last(lo.x, s.nx) / TILE, last(hi.x, s.nx) / TILE);
+            let (y0, y1) = (last(lo.y, s.ny) / TILE, last(hi.y, s.ny) / TILE);
+            for ty in y0..=y1.min(tiles_y - 1) {
+                for tx in x0..=x1 {
+                    let t = ty * self.tiles_x + tx;
+                    if self.dirty[t] {
+                        tiles.push(t);
+                    }
+                }
+            }
+        }
+        if tiles.is_empty() {
+            return 0;
+        }
+        tiles.sort_unstable();
+        tiles.dedup();
+        self.recompute(&tiles);
+        tiles.len()
     }
 
     /// Whether some tile waits for a refresh.
@@ -511,13 +530,6 @@ impl FieldLevel {
         keep: impl Fn(usize) -> bool + 'a,
     ) -> impl Iterator<Item = usize> + 'a {
         (0..self.dirty.len()).filter(move |&t| self.dirty[t] && keep(t))
-    }
-
-    /// Whether tile `t` may hold a cell centre within `r` of `p` (its centres lie within its
-    /// half-diagonal of its centre).
-    fn tile_reaches(&self, t: usize, p: Point2<f64>, r: f64) -> bool {
-        let (centre, half) = self.tile_center_and_half(t);
-        (centre - p).norm() <= r + half
     }
 
     /// The grid a [`FieldLevel::refresh`] would leave, computed without changing the level (for

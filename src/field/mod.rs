@@ -255,8 +255,8 @@ impl TensorField {
     }
 
     /// Lazy planning field: key frames and [`TensorField::set_path`] leave the planning field's
-    /// changed tiles pending, and [`TensorField::prepare_pathline`] computes only those a pathline can
-    /// reach. THP reads the planning field only along its pathlines, a few metres around the robot,
+    /// changed tiles pending, and [`TensorField::pathline_computing`] computes only those its pathline
+    /// reads. THP reads the planning field only along its pathlines, a few metres around the robot,
     /// while each key frame changes it wherever the map grew. Readers of [`TensorField::field`] still
     /// see the whole field, equal bit for bit (a tile's value depends only on the constraint set).
     /// Needs a separate topology level (topology reads the whole field); without one it has no effect.
@@ -266,22 +266,6 @@ impl TensorField {
             self.main.refresh();
             self.planning_snapshot = OnceLock::new();
         }
-    }
-
-    /// How far from its start a pathline of length `max_len` can read the planning field: its
-    /// points, the RK4 stages one step ahead, and the cell centres around them.
-    fn pathline_reach(&self, max_len: f64) -> f64 {
-        max_len + 2.0 * self.cfg.rk4_step_m + 2.0 * self.grid.res
-    }
-
-    /// Computes the pending tiles a pathline of length `max_len` from `start` can read (lazy mode).
-    pub fn prepare_pathline(&mut self, start: Point2<f64>, max_len: f64) -> usize {
-        let r = self.pathline_reach(max_len);
-        let cells = self.main.refresh_near(start, r);
-        if cells > 0 {
-            self.planning_snapshot = OnceLock::new();
-        }
-        cells
     }
 
     /// The (regularised, possibly edited by topological control) field the topology was computed on.
@@ -426,10 +410,52 @@ impl TensorField {
     }
 
     /// A pathline of the planning field from `start`, leaving along the direction nearest `heading`,
-    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points. Fast
-    /// when [`TensorField::prepare_pathline`] computed what it reads; else it reads [`TensorField::field`].
+    /// stopping at obstacles, unknown cells (if `stop_at_unknown`) and near degenerate points.
     pub fn pathline(
         &self,
+        start: Point2<f64>,
+        heading: f64,
+        max_len: f64,
+        stop_at_unknown: bool,
+    ) -> (Vec<Point2<f64>>, StopReason) {
+        self.pathline_on(self.field(), start, heading, max_len, stop_at_unknown)
+    }
+
+    /// [`TensorField::pathline`] that, with the lazy planning field, computes only the pending tiles
+    /// the pathline reads, and returns the same line.
+    ///
+    /// A pathline reads the field within `reach` of its start and points (the RK4 stages one step
+    /// ahead, and the cell centres around each sample). Traced on the level as it stands, some
+    /// reads may be of pending tiles; those tiles are computed and the line traced again, until a
+    /// trace finds every tile it read up to date. That trace read only final values, so it is the
+    /// line the whole field gives. It ends: each round computes at least one of finitely many tiles.
+    pub fn pathline_computing(
+        &mut self,
+        start: Point2<f64>,
+        heading: f64,
+        max_len: f64,
+        stop_at_unknown: bool,
+    ) -> (Vec<Point2<f64>>, StopReason) {
+        if !self.main.is_stale() {
+            return self.pathline_on(&self.main.grid, start, heading, max_len, stop_at_unknown);
+        }
+        let reach = 2.0 * self.cfg.rk4_step_m + 2.0 * self.main.grid.spec.res;
+        loop {
+            let (line, reason) =
+                self.pathline_on(&self.main.grid, start, heading, max_len, stop_at_unknown);
+            let read = std::iter::once(start).chain(line.iter().copied());
+            if self.main.refresh_along(read, reach) == 0 {
+                // Every tile this trace read was up to date.
+                return (line, reason);
+            }
+            self.planning_snapshot = OnceLock::new();
+        }
+    }
+
+    /// A pathline of `field` under this field's stop conditions.
+    fn pathline_on(
+        &self,
+        field: &FieldGrid,
         start: Point2<f64>,
         heading: f64,
         max_len: f64,
@@ -443,11 +469,6 @@ impl TensorField {
             degenerate_points: &pts,
             degenerate_radius_m: self.cfg.arrive_radius_m,
             origin: None,
-        };
-        let field = if self.main.is_fresh_near(start, self.pathline_reach(max_len)) {
-            &self.main.grid
-        } else {
-            self.field()
         };
         pathline(field, start, heading, max_len, self.cfg.rk4_step_m, &stop)
     }

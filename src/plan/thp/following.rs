@@ -136,18 +136,16 @@ impl Thp {
             self.stats.advection_stalls.add(1.0);
         }
         if self.cfg.advection && !goal.direct {
-            if let Some(field) = self.field.as_mut() {
-                field.prepare_pathline(robot, self.cfg.advect_length_m);
-            }
-            if let Some(field) = &self.field {
-                let aim = goal.path[(progress + 5).min(goal.path.len() - 1)];
-                let heading = if (aim - robot).norm() > 1e-6 {
-                    (aim.y - robot.y).atan2(aim.x - robot.x)
-                } else {
-                    ctx.pose.yaw
-                };
-                let (line, reason) =
-                    field.pathline(robot, heading, self.cfg.advect_length_m, false);
+            let aim = goal.path[(progress + 5).min(goal.path.len() - 1)];
+            let heading = if (aim - robot).norm() > 1e-6 {
+                (aim.y - robot.y).atan2(aim.x - robot.x)
+            } else {
+                ctx.pose.yaw
+            };
+            let traced = self.field.as_mut().map(|field| {
+                field.pathline_computing(robot, heading, self.cfg.advect_length_m, false)
+            });
+            if let Some((line, reason)) = traced {
                 let (segment, reaches_end) = accept_pathline(
                     &line,
                     &goal.path,

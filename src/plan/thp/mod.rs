@@ -225,7 +225,7 @@ impl FieldPlanner for Thp {
         let first = self.field.is_none();
         let field = self.field.get_or_insert_with(|| {
             let mut f = TensorField::new(*map.grid(), &self.field_cfg);
-            // THP reads the planning field only along its pathlines (`prepare_pathline`).
+            // THP reads the planning field only along its pathlines (`pathline_computing`).
             f.set_lazy_planning_field(true);
             f
         });
