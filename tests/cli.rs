@@ -196,6 +196,8 @@ fn explore_json_has_the_contract_keys_and_is_deterministic() {
         "reachable_area_m2",
         "explored_outside_observable_fraction",
         "unseen_observable",
+        "frontiers_left",
+        "frontier_groups_left",
         "surface_coverage",
         "path_length_m",
         "sim_time_s",

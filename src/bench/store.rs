@@ -176,10 +176,11 @@ pub fn flat_row(row: &BenchRow) -> Vec<(String, String)> {
     if let Some(r) = &row.result {
         let mut v = serde_json::to_value(r).unwrap_or(Value::Null);
         if let Value::Object(m) = &mut v {
-            // Lists do not flatten into columns: the curve is in curves.csv, the unseen patches in
-            // results.jsonl.
+            // Lists do not flatten into columns: the curve is in curves.csv, the unseen patches and
+            // the frontier groups left in results.jsonl (the count `frontiers_left` stays a column).
             m.remove("curve");
             m.remove("unseen_observable");
+            m.remove("frontier_groups_left");
             // Already in the key columns.
             for dup in ["planner", "seed", "config_hash", "scene_hash", "error"] {
                 m.remove(dup);

@@ -28,6 +28,9 @@ pub struct Cell {
     pub completeness: MeanCi,
     pub sim_time_s: MeanCi,
     pub collisions: u64,
+    /// Runs that ended `complete` with reachable frontiers left that border unseen observable space
+    /// (`frontiers_left > 0`).
+    pub complete_with_frontiers_left: usize,
     /// Mean over runs of each stage's mean per-step wall time, ms.
     pub timings_ms: BTreeMap<String, f64>,
     /// A* queries per run.
@@ -229,6 +232,12 @@ impl Summary {
                 completeness: col(&|r| r.completeness),
                 sim_time_s: col(&|r| r.sim_time_s),
                 collisions: ok.iter().map(|r| r.collisions).sum(),
+                complete_with_frontiers_left: ok
+                    .iter()
+                    .filter(|r| {
+                        r.termination == crate::sim::Termination::Complete && r.frontiers_left > 0
+                    })
+                    .count(),
                 timings_ms,
                 astar_calls: col(&|r| r.astar_calls as f64),
                 tsp_ms: {
@@ -323,8 +332,9 @@ impl Summary {
             )),
             None => s.push_str("ε: explored volume; L: path length. r_ε: no successful run of the reference planner.\n\n"),
         }
-        s.push_str("| scene | planner | runs | ε (m³) | r_ε | L (m) | completeness | sim time (s) | collisions |\n");
-        s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
+        s.push_str("Complete, frontiers left: runs that ended `complete` with a frontier left in the reachable region that borders unseen observable space (`frontiers_left` > 0).\n\n");
+        s.push_str("| scene | planner | runs | ε (m³) | r_ε | L (m) | completeness | sim time (s) | collisions | complete, frontiers left |\n");
+        s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for c in &self.cells {
             let ok = c.runs - c.failed;
             let runs = if c.failed > 0 {
@@ -334,14 +344,14 @@ impl Summary {
             };
             if ok == 0 {
                 s.push_str(&format!(
-                    "| {} | {} | {runs} | — | — | — | — | — | — |\n",
+                    "| {} | {} | {runs} | — | — | — | — | — | — | — |\n",
                     scene_name(&c.scene),
                     c.planner
                 ));
                 continue;
             }
             s.push_str(&format!(
-                "| {} | {} | {runs} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {} | {runs} | {} | {} | {} | {} | {} | {} | {} |\n",
                 scene_name(&c.scene),
                 c.planner,
                 pm(c.explored_volume_m3, 1),
@@ -349,7 +359,8 @@ impl Summary {
                 pm(c.path_length_m, 1),
                 pm(c.completeness, 3),
                 pm(c.sim_time_s, 0),
-                c.collisions
+                c.collisions,
+                c.complete_with_frontiers_left
             ));
         }
         s.push_str("\n## Stage timings (THP Table 2)\n\nMean wall time per simulation step, ms (mean over runs of each run's mean).\n\n| scene | planner |");
@@ -530,6 +541,46 @@ mod tests {
             "{md}"
         );
         assert!(!section.contains("greedy"), "{md}");
+    }
+
+    #[test]
+    fn runs_complete_with_frontiers_left_are_counted_per_cell() {
+        let with = |termination: crate::sim::Termination, frontiers_left: u64| {
+            let mut r = row("thp", "c1", Some(8.0));
+            let result = r.result.as_mut().unwrap();
+            result.termination = termination;
+            result.frontiers_left = frontiers_left;
+            r
+        };
+        use crate::sim::Termination::{Budget, Complete};
+        let rows = [
+            with(Complete, 12),
+            with(Complete, 0),
+            with(Budget, 7),
+            with(Complete, 1),
+            row("greedy", "c1", Some(4.0)),
+        ];
+        let s = Summary::of(&rows, None);
+        let count = |p: &str| {
+            let c = s.cells.iter().find(|c| c.planner == p).unwrap();
+            c.complete_with_frontiers_left
+        };
+        assert_eq!((count("thp"), count("greedy")), (2, 0));
+        let md = s.to_markdown();
+        assert!(
+            md.contains("| collisions | complete, frontiers left |"),
+            "{md}"
+        );
+        let thp = md
+            .lines()
+            .find(|l| l.starts_with("| a | thp | 4 |"))
+            .unwrap();
+        assert!(thp.ends_with("| 0 | 2 |"), "{thp}");
+        let greedy = md
+            .lines()
+            .find(|l| l.starts_with("| a | greedy | 1 |"))
+            .unwrap();
+        assert!(greedy.ends_with("| 0 | 0 |"), "{greedy}");
     }
 
     #[test]

@@ -264,6 +264,20 @@ pub fn run(args: ExploreArgs) -> Result<()> {
                 }
             )?;
         }
+        if r.frontiers_left > 0 {
+            writeln!(
+                text,
+                "frontiers left {} cells reachable, bordering unseen observable space",
+                r.frontiers_left
+            )?;
+            for g in &r.frontier_groups_left {
+                writeln!(
+                    text,
+                    "  frontier {} cells around ({:.1}, {:.1})",
+                    g.cells, g.x, g.y
+                )?;
+            }
+        }
         writeln!(text, "path length    {:.1} m", r.path_length_m)?;
         writeln!(
             text,

@@ -122,6 +122,17 @@ impl ObservableSet {
         ObservableSet::from_bits(gt, bits, coarse.len() + fine.len())
     }
 
+    /// A set holding exactly the band voxels among `voxels` (flat indices), for tests that need an
+    /// observable set known by construction.
+    #[cfg(test)]
+    pub(crate) fn of_voxels(gt: &GroundTruth, voxels: &[usize]) -> ObservableSet {
+        let mut bits = vec![0u64; gt.grid.voxels().div_ceil(64)];
+        for &v in voxels {
+            bits[v >> 6] |= 1 << (v & 63);
+        }
+        ObservableSet::from_bits(gt, bits, 0)
+    }
+
     /// Completes a set from its bits: keeps band voxels only, counts them, lists the surface.
     fn from_bits(gt: &GroundTruth, mut bits: Vec<u64>, positions: usize) -> ObservableSet {
         let grid = gt.grid;

@@ -2,7 +2,8 @@
 
 use super::clock::{Stage, StageClock};
 use super::metrics::{
-    surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult, Termination,
+    frontiers_left, surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult,
+    Termination,
 };
 use super::motion::{MotionExecutor, MotionParams, MotionStatus};
 use super::observable::{CacheOutcome, ObservableCache, ObservableParams, ObservableSet};
@@ -553,6 +554,7 @@ impl<'a> Simulation<'a> {
         }
         let wall_time_s = self.wall_start.elapsed().as_secs_f64();
         let (gt, map, cfg) = (&self.gt, &self.map, self.cfg);
+        let left = frontiers_left(gt, &self.observable, map);
         let result = RunResult {
             scene: self.scene.name.clone(),
             scene_hash: self.scene.content_hash.clone(),
@@ -568,6 +570,8 @@ impl<'a> Simulation<'a> {
             explored_outside_observable_fraction: explored.outside_observable_fraction(),
             surface_coverage: surface_coverage(&self.observable, map),
             unseen_observable: unseen_patches(gt, &self.observable, map),
+            frontiers_left: left.cells,
+            frontier_groups_left: left.groups,
             path_length_m: self.robot.path_length_m,
             sim_time_s,
             wall_time_s,
