@@ -264,11 +264,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
                 }
             )?;
         }
-        if r.frontiers_left > 0 {
+        if let Some(left) = r.frontiers_left.filter(|&n| n > 0) {
             writeln!(
                 text,
-                "frontiers left {} cells reachable, bordering unseen observable space",
-                r.frontiers_left
+                "frontiers left {left} cells reachable, bordering unseen observable space"
             )?;
             for g in &r.frontier_groups_left {
                 writeln!(

@@ -387,9 +387,10 @@ pub struct RunResult {
     #[serde(default)]
     pub unseen_observable: Vec<UnseenPatch>,
     /// Frontier cells left at the end that lie in the reachable region and border an Unknown cell
-    /// whose column holds unseen observable voxels (see [`frontiers_left`]).
+    /// whose column holds unseen observable voxels (see [`frontiers_left`]); `None` in a row
+    /// written before the count existed (not zero: an old batch resumed must not read as clean).
     #[serde(default)]
-    pub frontiers_left: u64,
+    pub frontiers_left: Option<u64>,
     /// The largest 8-connected groups of those cells (see [`FrontierGroup`]).
     #[serde(default)]
     pub frontier_groups_left: Vec<FrontierGroup>,

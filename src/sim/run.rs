@@ -570,7 +570,7 @@ impl<'a> Simulation<'a> {
             explored_outside_observable_fraction: explored.outside_observable_fraction(),
             surface_coverage: surface_coverage(&self.observable, map),
             unseen_observable: unseen_patches(gt, &self.observable, map),
-            frontiers_left: left.cells,
+            frontiers_left: Some(left.cells),
             frontier_groups_left: left.groups,
             path_length_m: self.robot.path_length_m,
             sim_time_s,
