@@ -490,7 +490,6 @@ impl FieldLevel {
     /// `points`; returns how many tiles it recomputed (0: every such tile was up to date).
     pub fn refresh_along(&mut self, points: impl Iterator<Item = Point2<f64>>, r: f64) -> usize {
         let s = self.grid.spec;
-        let tiles_y = s.ny.div_ceil(TILE);
         let last = |v: i32, n: usize| (v.max(0) as usize).min(n - 1);
         let mut tiles = Vec::new();
         for p in points {
@@ -501,7 +500,7 @@ impl FieldLevel {
             }
             let (x0, x1) = (last(lo.x, s.nx) / TILE, last(hi.x, s.nx) / TILE);
             let (y0, y1) = (last(lo.y, s.ny) / TILE, last(hi.y, s.ny) / TILE);
-            for ty in y0..=y1.min(tiles_y - 1) {
+            for ty in y0..=y1 {
                 for tx in x0..=x1 {
                     let t = ty * self.tiles_x + tx;
                     if self.dirty[t] {

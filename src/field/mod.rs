@@ -436,9 +436,6 @@ impl TensorField {
         max_len: f64,
         stop_at_unknown: bool,
     ) -> (Vec<Point2<f64>>, StopReason) {
-        if !self.main.is_stale() {
-            return self.pathline_on(&self.main.grid, start, heading, max_len, stop_at_unknown);
-        }
         let reach = 2.0 * self.cfg.rk4_step_m + 2.0 * self.main.grid.spec.res;
         loop {
             let (line, reason) =

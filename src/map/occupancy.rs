@@ -1042,13 +1042,9 @@ mod tests {
             .map(|f| reference_frame(&g, rule(), &mut reference, f))
             .collect();
         for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
             let mut occ = occupancy(g);
             for (f, (newly, columns)) in frames.iter().zip(&expected) {
-                let up = pool.install(|| occ.integrate(f));
+                let up = crate::util::on_threads(threads, || occ.integrate(f));
                 assert_eq!(&up.newly_known, newly, "{threads} threads");
                 assert_eq!(&up.changed_columns, columns, "{threads} threads");
             }
@@ -1134,11 +1130,7 @@ mod tests {
                     .collect();
                 let fresh = occupancy(g);
                 for threads in [1, 2] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
-                    pool.install(|| {
+                    crate::util::on_threads(threads, || {
                         let (mut a, mut b) = (fresh.clone(), fresh.clone());
                         for (i, f) in frames.iter().enumerate() {
                             let (ma, _) = miss_set(&fresh, f, Walk::Rays);

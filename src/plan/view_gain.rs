@@ -493,11 +493,7 @@ mod tests {
         let (map, df) = half_scanned_room(&cfg);
         let grid = *map.grid();
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            crate::util::on_threads(threads, || {
                 let mut views = views_with_cutoff(cfg.volume_views.gain_cutoff_m3.get()).unwrap();
                 std::iter::from_fn(|| views.next(&map, &df))
                     .take(10_000)

@@ -853,16 +853,8 @@ mod tests {
     fn results_do_not_depend_on_thread_count() {
         let cfg = Config::default();
         let mesh = box_room();
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap()
-            .install(|| GroundTruth::build(&mesh, None, &cfg).unwrap());
-        let many = rayon::ThreadPoolBuilder::new()
-            .num_threads(3)
-            .build()
-            .unwrap()
-            .install(|| GroundTruth::build(&mesh, None, &cfg).unwrap());
+        let one = crate::util::on_threads(1, || GroundTruth::build(&mesh, None, &cfg).unwrap());
+        let many = crate::util::on_threads(3, || GroundTruth::build(&mesh, None, &cfg).unwrap());
         assert_eq!(one.occupied, many.occupied);
         assert_eq!(one.surface, many.surface);
         assert_eq!(one.spawn, many.spawn);

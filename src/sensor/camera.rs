@@ -335,11 +335,7 @@ mod tests {
         let bvh = MeshBvh::new(&crate::sensor::raycast::testing::furnished_room(8.0)).unwrap();
         let pose = Pose2::new(3.1, 4.2, 0.9);
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let f = pool.install(|| cam.capture(&bvh, pose));
+            let f = crate::util::on_threads(threads, || cam.capture(&bvh, pose));
             f.range.iter().map(|r| r.to_bits()).collect::<Vec<_>>()
         };
         let one = run(1);

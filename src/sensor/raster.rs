@@ -908,11 +908,7 @@ mod tests {
         }
         // Both thread counts: the bands are filled by different tasks, the frame must not change.
         for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            crate::util::on_threads(threads, || {
                 for (k, path) in scenes.iter().enumerate() {
                     let pixels = compare_scene(path, 120, &[(80, 60), (173, 41)], k as u64);
                     assert!(pixels > 0);

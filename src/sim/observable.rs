@@ -1735,18 +1735,14 @@ mod tests {
         let gt = GroundTruth::build(&mesh, Some(Pose2::new(3.0, 3.0, 0.0)), &cfg).unwrap();
         let bvh = MeshBvh::new(&mesh).unwrap();
         let compute = |threads: usize| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    ObservableSet::compute(
-                        &gt,
-                        &bvh,
-                        &DepthCamera::new(&cfg.camera),
-                        &ObservableParams::from_config(&cfg.metrics),
-                    )
-                })
+            crate::util::on_threads(threads, || {
+                ObservableSet::compute(
+                    &gt,
+                    &bvh,
+                    &DepthCamera::new(&cfg.camera),
+                    &ObservableParams::from_config(&cfg.metrics),
+                )
+            })
         };
         assert_eq!(compute(1), compute(2));
     }
