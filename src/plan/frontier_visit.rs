@@ -2,14 +2,18 @@
 //!
 //! A forward camera cannot see the floor right in front of it, so a frontier is approached in two
 //! tries: first the robot stops `view_m` short of it (along the path) and turns once in place to look
-//! into the unknown; if the frontier survives, the next approach goes all the way. A frontier that is
-//! still a frontier after the robot stood on it and looked, or that the robot failed to reach twice, is
-//! marked unobservable and skipped from then on (THP §3.4: "done after the robot has looked at it").
+//! into the unknown; if the frontier survives, the next approach goes all the way. A frontier cell
+//! that is still a frontier after a look from a distance and then a look from on top of it, or after
+//! a look from a viewpoint chosen to see it, or that the robot failed to reach twice, is marked
+//! unobservable and skipped from then on (THP §3.4: "done after the robot has looked at it"). A look
+//! counts only for the cells beyond the blind zone (`search.near_unknown_radius_m`) around the robot.
 
 use super::search::DistanceField;
+use crate::config::CameraConfig;
 use crate::grid::{Cell, GridSpec};
+use crate::map::occupancy::{traverse_while, VoxelState};
 use crate::map::Map;
-use nalgebra::Point2;
+use nalgebra::{Point2, Point3, Vector3};
 
 /// Failed attempts after which a frontier is given up.
 const MAX_ATTEMPTS: u32 = 2;
@@ -42,6 +46,12 @@ impl Visit {
 pub struct FrontierVisits {
     unobservable: Vec<bool>,
     approached: Vec<bool>,
+    /// Looked at from a distance and then from on top, and still a frontier.
+    topped: Vec<bool>,
+    /// Lay in the camera's blind zone during a first look, which therefore showed nothing of it.
+    blinded: Vec<bool>,
+    /// Looks from a viewpoint chosen to see the cell.
+    near_looks: Vec<u8>,
     /// Failed attempts per aimed-at cell.
     attempts: Vec<(usize, u32)>,
 }
@@ -52,6 +62,9 @@ impl FrontierVisits {
         if self.unobservable.len() != grid.cells() {
             self.unobservable = vec![false; grid.cells()];
             self.approached = vec![false; grid.cells()];
+            self.topped = vec![false; grid.cells()];
+            self.blinded = vec![false; grid.cells()];
+            self.near_looks = vec![0; grid.cells()];
             self.attempts.clear();
         }
     }
@@ -59,6 +72,27 @@ impl FrontierVisits {
     /// Whether the frontier cell was given up on.
     pub fn is_unobservable(&self, cell: usize) -> bool {
         self.unobservable.get(cell).copied().unwrap_or(false)
+    }
+
+    /// Whether the frontier cell is next looked at from a viewpoint chosen to see it
+    /// ([`sighted_viewpoint`]): it survived a look from a distance and one from on top of it, or it
+    /// lay in the blind zone during its first look.
+    pub fn needs_viewpoint(&self, cell: usize) -> bool {
+        self.topped.get(cell).copied().unwrap_or(false)
+            || self.blinded.get(cell).copied().unwrap_or(false)
+    }
+
+    /// For the cells of `visit` that need a viewpoint where none sees them: a cell that only lay in
+    /// the blind zone gets the ordinary two approaches instead (it counts as looked at from a
+    /// distance), so that no cell waits for a viewpoint that does not exist.
+    pub fn no_viewpoint(&mut self, grid: &GridSpec, visit: &Visit) {
+        for c in &visit.target {
+            let i = grid.index(*c);
+            if self.blinded[i] && !self.topped[i] {
+                self.blinded[i] = false;
+                self.approached[i] = true;
+            }
+        }
     }
 
     /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
@@ -90,19 +124,70 @@ impl FrontierVisits {
         &path[..keep]
     }
 
-    /// Records how an attempt at `visit` ended: `reached` its (cut-short) goal and looked, or not.
-    pub fn finished(&mut self, map: &Map, visit: &Visit, reached: bool) {
+    /// Records how an attempt at `visit` ended: `reached` its (cut-short) goal and looked from
+    /// `robot`, or not. The camera does not see the floor within `blind_zone_m` of the robot, so a
+    /// look counts only for the target cells beyond it:
+    /// - a first look marks those cells approached (the others stay as they were: from afar they
+    ///   get a first look again, from close by a step back to a viewpoint);
+    /// - a look from the frontier itself gives up the cells that had their look from a distance;
+    /// - a look from a viewpoint chosen to see the frontier (`near_view`) gives up the target.
+    ///
+    /// Giving up every target cell after a look from on top of it ended runs `complete` with
+    /// frontiers whose floor no look had shown (the segment grew, or the first look stood too close).
+    pub fn finished(
+        &mut self,
+        map: &Map,
+        visit: &Visit,
+        reached: bool,
+        robot: Point2<f64>,
+        blind_zone_m: f64,
+        camera: &CameraConfig,
+    ) {
         if !visit.is_open(map) {
             return;
         }
         let grid = map.grid();
         if reached {
-            if self.approached[visit.aim] || visit.near_view {
-                // Looked from the frontier itself and it is still one: nothing more can be seen.
-                self.give_up(grid, visit);
-            } else {
+            if visit.near_view {
+                // Given up: the cells this look could see (the missing voxel beside them was in
+                // view and stayed unknown), and any cell on its second such look. Cells that had
+                // only a look from a distance still get their approach.
+                let from = grid.cell_of(robot).map(|c| grid.index(c));
                 for c in &visit.target {
-                    self.approached[grid.index(*c)] = true;
+                    let i = grid.index(*c);
+                    if !(self.topped[i] || self.blinded[i] || !self.approached[i]) {
+                        continue;
+                    }
+                    self.blinded[i] = false;
+                    let seeable = from.is_some_and(|v| {
+                        lowest_unknown_beside(map, i)
+                            .iter()
+                            .any(|&t| camera_sees(map, v, t, camera))
+                    });
+                    self.near_looks[i] += 1;
+                    if seeable || self.near_looks[i] >= 2 {
+                        self.unobservable[i] = true;
+                    }
+                }
+            } else if self.approached[visit.aim] {
+                for c in &visit.target {
+                    let i = grid.index(*c);
+                    if self.approached[i] {
+                        if self.topped[i] {
+                            self.unobservable[i] = true;
+                        }
+                        self.topped[i] = true;
+                    }
+                }
+            } else {
+                let blind2 = blind_zone_m * blind_zone_m;
+                for c in &visit.target {
+                    let i = grid.index(*c);
+                    if (grid.center(*c) - robot).norm_squared() > blind2 {
+                        self.approached[i] = true;
+                    } else if !self.approached[i] {
+                        self.blinded[i] = true;
+                    }
                 }
             }
             return;
@@ -143,25 +228,44 @@ impl FrontierVisits {
             }
         }
     }
-
-    /// Marks every cell of the visit's target unobservable.
-    pub fn give_up(&mut self, grid: &GridSpec, visit: &Visit) {
-        for c in &visit.target {
-            self.unobservable[grid.index(*c)] = true;
-        }
-    }
 }
 
-/// For a frontier at `f` in the camera's blind zone: the least-cost traversable cell `view_m` to
-/// `2·view_m` from it, from which the camera sees the floor there.
+/// For the frontier cell `aim` in the camera's blind zone: the least-cost traversable cell `view_m`
+/// to `2·view_m` from it from which the camera sees the floor beside it ([`sighted_viewpoint`]); if
+/// none of that ring does, the least-cost cell of the ring.
 pub fn blind_zone_viewpoint(
     map: &Map,
     df: &DistanceField,
-    f: Point2<f64>,
+    aim: usize,
     view_m: f64,
+    camera: &CameraConfig,
 ) -> Option<usize> {
+    let ring = viewpoint_ring(map, df, aim, view_m);
+    first_sighted(map, &ring, aim, camera).or(ring.first().map(|&(_, v)| v))
+}
+
+/// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from which
+/// the camera can see the lowest unknown voxel of an Unknown column beside it: in its vertical field
+/// of view and range, through no occupied voxel of the map.
+///
+/// That voxel is what keeps the column Unknown (a column is known only with its lowest voxel,
+/// `map.column_known_fraction`), and beside a wall or furniture only steep rays from 1–2.5 m reach
+/// it: a viewpoint picked by cost alone often looked over it, and the frontier was given up.
+pub fn sighted_viewpoint(
+    map: &Map,
+    df: &DistanceField,
+    aim: usize,
+    view_m: f64,
+    camera: &CameraConfig,
+) -> Option<usize> {
+    first_sighted(map, &viewpoint_ring(map, df, aim, view_m), aim, camera)
+}
+
+/// The reachable traversable cells `view_m` to `2·view_m` from `aim`, by cost (then index).
+fn viewpoint_ring(map: &Map, df: &DistanceField, aim: usize, view_m: f64) -> Vec<(f32, usize)> {
     let grid = map.grid();
-    (0..grid.cells())
+    let f = grid.center(grid.cell(aim));
+    let mut ring: Vec<(f32, usize)> = (0..grid.cells())
         .filter(|&i| map.is_traversable(i))
         .filter_map(|i| {
             let d = (grid.center(grid.cell(i)) - f).norm();
@@ -169,8 +273,69 @@ pub fn blind_zone_viewpoint(
                 .then(|| df.cost_to(i).map(|c| (c, i)))
                 .flatten()
         })
-        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-        .map(|(_, i)| i)
+        .collect();
+    ring.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    ring
+}
+
+/// The first cell of `ring` from which the camera sees the floor beside `aim`.
+fn first_sighted(
+    map: &Map,
+    ring: &[(f32, usize)],
+    aim: usize,
+    camera: &CameraConfig,
+) -> Option<usize> {
+    let targets = lowest_unknown_beside(map, aim);
+    ring.iter()
+        .map(|&(_, v)| v)
+        .find(|&v| targets.iter().any(|&t| camera_sees(map, v, t, camera)))
+}
+
+/// The lowest unknown voxel above the floor layer of each Unknown 4-neighbour column of `cell`.
+fn lowest_unknown_beside(map: &Map, cell: usize) -> Vec<usize> {
+    let occ = map.occupancy();
+    let grid = occ.grid();
+    let c = grid.cell(cell);
+    crate::grid::NEIGHBOURS_8[..4]
+        .iter()
+        .filter_map(|&(dx, dy)| grid.checked_index(Cell::new(c.x + dx, c.y + dy)))
+        .filter(|&j| map.is_unknown(j))
+        .filter_map(|j| {
+            (1..grid.nz)
+                .map(|iz| grid.voxel_index(grid.cell(j), iz))
+                .find(|&v| occ.state(v) == VoxelState::Unknown)
+        })
+        .collect()
+}
+
+/// Whether the camera, standing at cell `from`, can see voxel `target`: its centre lies within the
+/// vertical field of view and the depth range, and the ray to it crosses no occupied voxel first.
+fn camera_sees(map: &Map, from: usize, target: usize, camera: &CameraConfig) -> bool {
+    let occ = map.occupancy();
+    let grid = occ.grid();
+    let p = grid.center(grid.cell(from));
+    let origin = Point3::new(p.x, p.y, camera.mount_height_m.get());
+    let (cell, iz) = grid.voxel_parts(target);
+    let q = grid.center(grid.cell(cell));
+    let to = Vector3::new(q.x - p.x, q.y - p.y, grid.layer_center(iz) - origin.z);
+    let range = to.norm();
+    let horizontal = to.xy().norm();
+    let half_vfov = 0.5 * camera.vfov_deg.to_radians();
+    if range < camera.min_range_m.get()
+        || range > camera.max_range_m.get()
+        || to.z.abs().atan2(horizontal) > half_vfov
+    {
+        return false;
+    }
+    let mut seen = false;
+    traverse_while(grid, origin, to / range, range, |v, _, _| {
+        if v == target {
+            seen = true;
+            return false;
+        }
+        occ.state(v) != VoxelState::Occupied
+    });
+    seen
 }
 
 /// Whether no obstacle cell lies on the straight line between two cell centres (sampled every half
@@ -264,4 +429,132 @@ pub fn follow_to(
         look_on_arrival,
     };
     (action, cells)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::map::testing::seen_from;
+    use crate::sensor::raycast::testing::furnished_room;
+    use crate::sensor::MeshBvh;
+    use crate::Pose2;
+
+    /// One look into a furnished room leaves frontier segments; a visit to the longest one.
+    fn open_visit() -> (Map, Visit) {
+        let cfg = Config::default();
+        let grid = GridSpec::covering(
+            Point2::new(-0.5, -0.5),
+            Point2::new(8.5, 8.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(1.0, 4.0, 0.0)]);
+        let target = map
+            .frontiers()
+            .into_iter()
+            .max_by_key(|s| s.cells.len())
+            .expect("a frontier")
+            .cells;
+        assert!(target.len() >= 4, "{}", target.len());
+        let aim = grid.index(target[0]);
+        let visit = Visit {
+            target,
+            aim,
+            near_view: false,
+        };
+        assert!(visit.is_open(&map));
+        (map, visit)
+    }
+
+    #[test]
+    fn looks_give_up_a_frontier_cell_only_after_a_look_that_could_show_it() {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let cam = Config::default().camera;
+        // Stand on the aim, with a blind zone reaching half way along the segment: the cells within
+        // it get no look, and are next looked at from a viewpoint.
+        let robot = grid.center(grid.cell(visit.aim));
+        let blind = 0.5
+            * visit
+                .target
+                .iter()
+                .map(|c| (grid.center(*c) - robot).norm())
+                .fold(0.0, f64::max);
+        let far = |c: &Cell| (grid.center(*c) - robot).norm() > blind;
+        assert!(visit.target.iter().any(far) && !visit.target.iter().all(far));
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        visits.finished(&map, &visit, true, robot, blind, &cam);
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert_eq!(visits.was_approached(i), far(c), "{c:?}");
+            assert_eq!(visits.needs_viewpoint(i), !far(c), "{c:?}");
+            assert!(!visits.is_unobservable(i));
+        }
+        // The next look, from on top of a cell that had its look from afar, gives up nothing: the
+        // approached cells now want a viewpoint too.
+        let aim = grid.index(*visit.target.iter().find(|c| far(c)).unwrap());
+        let on_top = Visit {
+            aim,
+            ..visit.clone()
+        };
+        visits.finished(
+            &map,
+            &on_top,
+            true,
+            grid.center(grid.cell(aim)),
+            blind,
+            &cam,
+        );
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert!(
+                visits.needs_viewpoint(i) && !visits.is_unobservable(i),
+                "{c:?}"
+            );
+        }
+        // Looks from a viewpoint off the map see none of it: the first gives up nothing, the
+        // second gives up the whole target.
+        let view = Visit {
+            near_view: true,
+            ..visit.clone()
+        };
+        let nowhere = Point2::new(-100.0, -100.0);
+        visits.finished(&map, &view, true, nowhere, blind, &cam);
+        assert!(visit
+            .target
+            .iter()
+            .all(|c| !visits.is_unobservable(grid.index(*c))));
+        visits.finished(&map, &view, true, nowhere, blind, &cam);
+        assert!(visit
+            .target
+            .iter()
+            .all(|c| visits.is_unobservable(grid.index(*c))));
+    }
+
+    #[test]
+    fn a_cell_no_viewpoint_sees_gets_the_two_approaches_instead() {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let cam = Config::default().camera;
+        let robot = grid.center(grid.cell(visit.aim));
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        // A blind zone that holds the whole segment: every cell wants a viewpoint.
+        visits.finished(&map, &visit, true, robot, f64::INFINITY, &cam);
+        assert!(visit
+            .target
+            .iter()
+            .all(|c| visits.needs_viewpoint(grid.index(*c))));
+        visits.no_viewpoint(grid, &visit);
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert!(
+                !visits.needs_viewpoint(i) && visits.was_approached(i),
+                "{c:?}"
+            );
+        }
+    }
 }

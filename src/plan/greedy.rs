@@ -11,7 +11,9 @@
 //! which the camera would still see unknown volume that no frontier shows
 //! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
 
-use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
+use super::frontier_visit::{
+    blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint, FrontierVisits, Visit,
+};
 use super::view_gain::VolumeViews;
 use super::{Action, Count, Plan, PlanContext, Planner};
 use crate::config::GreedyConfig;
@@ -141,14 +143,36 @@ impl Greedy {
                 aim: near_goal,
                 near_view: true,
             });
-            let f = grid.center(grid.cell(near_goal));
-            let Some(v) = blind_zone_viewpoint(map, &df, f, view_m) else {
+            let Some(v) = blind_zone_viewpoint(map, &df, near_goal, view_m, &ctx.cfg.camera) else {
                 return Ok(Action::LookAround);
             };
             let action;
             (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival);
             return Ok(action);
         };
+        if self.visits.needs_viewpoint(goal) {
+            // A look from on top or from within the blind zone left it: next from where the camera
+            // sees the floor beside it, if any.
+            let visit = Visit {
+                target: segments[k]
+                    .cells
+                    .iter()
+                    .copied()
+                    .filter(|c| self.visits.needs_viewpoint(grid.index(*c)))
+                    .collect(),
+                aim: goal,
+                near_view: true,
+            };
+            match sighted_viewpoint(map, &df, goal, view_m, &ctx.cfg.camera) {
+                Some(v) => {
+                    self.visit = Some(visit);
+                    let action;
+                    (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival);
+                    return Ok(action);
+                }
+                None => self.visits.no_viewpoint(&grid, &visit),
+            }
+        }
         let path = df.path_to(&grid, goal).expect("reachable by construction");
         let cells = self.visits.cut_short(&grid, &path.cells, goal, view_m);
         self.path_cells = cells.iter().skip(1).map(|c| grid.index(*c)).collect();
@@ -199,7 +223,14 @@ impl Planner for Greedy {
             return;
         }
         if let Some(visit) = self.visit.take() {
-            self.visits.finished(ctx.map, &visit, reached);
+            self.visits.finished(
+                ctx.map,
+                &visit,
+                reached,
+                ctx.pose.position(),
+                ctx.cfg.search.near_unknown_radius_m,
+                &ctx.cfg.camera,
+            );
         }
     }
 }

@@ -13,7 +13,7 @@ pub mod thp;
 pub mod tsp;
 pub(crate) mod view_gain;
 
-use crate::config::{Config, MotionConfig, RobotConfig, SearchConfig};
+use crate::config::{CameraConfig, Config, MotionConfig, RobotConfig, SearchConfig};
 use crate::field::TensorField;
 use crate::grid::Cell;
 use crate::map::Map;
@@ -40,6 +40,7 @@ pub struct PlanParams {
     pub search: SearchConfig,
     pub robot: RobotConfig,
     pub motion: MotionConfig,
+    pub camera: CameraConfig,
 }
 
 impl From<&Config> for PlanParams {
@@ -48,6 +49,7 @@ impl From<&Config> for PlanParams {
             search: cfg.search.clone(),
             robot: cfg.robot.clone(),
             motion: cfg.motion.clone(),
+            camera: cfg.camera.clone(),
         }
     }
 }

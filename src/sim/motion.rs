@@ -7,8 +7,8 @@ use crate::map::Map;
 use crate::plan::Action;
 use crate::util::wrap_angle;
 use crate::Pose2;
-use nalgebra::Point2;
-use std::f64::consts::TAU;
+use nalgebra::{Point2, Vector2};
+use std::f64::consts::{PI, TAU};
 
 /// How the current action is going.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,8 +35,9 @@ enum Phase {
     Looking {
         turned_rad: f64,
     },
-    /// Backing off from a known obstacle the robot got too close to: turn away from the nearest
-    /// obstacle cell and creep forward until the clearance is back, then report `Blocked`.
+    /// Backing off from a hazard the robot got too close to: turn to the heading in which the
+    /// clearance grows most ([`escape_heading`]) and creep forward until the clearance is back,
+    /// then report `Blocked`.
     Escaping {
         steps_left: u32,
     },
@@ -163,16 +164,18 @@ impl MotionExecutor {
             Phase::Escaping { steps_left } => {
                 let here = pose.position();
                 let clearance = obstacle_clearance(map, here, self.slow_clearance);
-                let away = map
-                    .nearest_hazard(here, self.slow_clearance)
-                    .map(|o| here - o);
                 *steps_left = steps_left.saturating_sub(1);
                 let done = clearance >= self.free_clearance || *steps_left == 0;
-                let Some(away) = away.filter(|_| !done) else {
+                let away = (!done)
+                    .then(|| {
+                        escape_heading(map, here, clearance, self.slow_clearance, pose.yaw + PI)
+                    })
+                    .flatten();
+                let Some(heading) = away else {
                     self.phase = Phase::Idle;
                     return (Command::default(), MotionStatus::Blocked);
                 };
-                let err = wrap_angle(away.y.atan2(away.x) - pose.yaw);
+                let err = wrap_angle(heading - pose.yaw);
                 let w = (HEADING_GAIN * err).clamp(-self.max_turn, self.max_turn);
                 if err.abs() > self.turn_in_place {
                     return (Command { v: 0.0, w }, MotionStatus::Busy);
@@ -186,6 +189,47 @@ impl MotionExecutor {
             }
         }
     }
+}
+
+/// Headings tried when backing off.
+const ESCAPE_HEADINGS: usize = 16;
+/// How far ahead a heading is probed when backing off, metres.
+const ESCAPE_PROBE_M: f64 = 0.05;
+
+/// Clearances within this of the best count as equally good when backing off, metres.
+const ESCAPE_TIE_M: f64 = 1e-3;
+
+/// The heading in which the clearance grows most over a short step from `here`, among those in
+/// which it does not shrink; of equally good ones, the nearest to `back` (the way the robot came).
+/// `None` if every heading brings the disc closer to a hazard.
+///
+/// Straight away from the nearest hazard is not enough: between two hazards (a gap the guard finds a
+/// little too narrow) it leads toward the other one, and the robot stayed wedged there until the
+/// run ended `stuck`.
+fn escape_heading(
+    map: &Map,
+    here: Point2<f64>,
+    clearance: f64,
+    max_m: f64,
+    back: f64,
+) -> Option<f64> {
+    let probes: Vec<(f64, f64)> = (0..ESCAPE_HEADINGS)
+        .map(|k| {
+            let heading = wrap_angle(k as f64 * TAU / ESCAPE_HEADINGS as f64);
+            let probe = here + ESCAPE_PROBE_M * Vector2::new(heading.cos(), heading.sin());
+            (obstacle_clearance(map, probe, max_m), heading)
+        })
+        .filter(|&(c, _)| c >= clearance)
+        .collect();
+    let best = probes.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    probes
+        .into_iter()
+        .filter(|&(c, _)| c >= best - ESCAPE_TIE_M)
+        .min_by(|a, b| {
+            let off = |h: f64| wrap_angle(h - back).abs();
+            off(a.1).total_cmp(&off(b.1)).then(a.1.total_cmp(&b.1))
+        })
+        .map(|(_, heading)| heading)
 }
 
 impl MotionExecutor {
@@ -423,5 +467,51 @@ mod tests {
         }
         assert_eq!(status, MotionStatus::Done, "stopped at {pose:?}");
         assert!((pose.position() - goal).norm() <= cfg.motion.goal_tolerance_m + 1e-9);
+    }
+
+    /// Two walls 0.55 m apart, seen from all sides, with the robot between them facing along the gap:
+    /// straight away from the nearer wall leads toward the other, so the robot backs off along the
+    /// gap, the way it came.
+    #[test]
+    fn backing_off_between_two_hazards_follows_the_gap() {
+        let cfg = Config::default();
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, 0.225, 1.0]);
+        push_box(&mut mesh, [0.8, 0.775, 0.0], [1.2, 1.0, 1.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let grid = GridSpec::covering(
+            Point2::new(-1.0, -1.5),
+            Point2::new(3.0, 2.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let looks = [(-0.5, 0.5), (2.5, 0.5), (1.0, -1.2), (1.0, 2.2)]
+            .into_iter()
+            .flat_map(|(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
+        let map = seen_from(grid, &cfg, &bvh, looks);
+        let here = Point2::new(1.0, 0.5);
+        let max_m = cfg.motion.slow_clearance_m.get();
+        let clearance = obstacle_clearance(&map, here, max_m);
+        assert!(clearance < cfg.robot.radius_m + 0.05, "{clearance}");
+        let nearest = map
+            .nearest_hazard(here, max_m)
+            .expect("a wall within reach");
+        let away = (here - nearest).normalize();
+        assert!(obstacle_clearance(&map, here + ESCAPE_PROBE_M * away, max_m) <= clearance);
+        let back = PI;
+        let heading =
+            escape_heading(&map, here, clearance, max_m, back).expect("the gap leads out");
+        assert!(wrap_angle(heading - back).abs() < 1e-9, "heading {heading}");
+        // Facing the other way, it backs off the other way.
+        let heading = escape_heading(&map, here, clearance, max_m, 0.0).expect("the gap leads out");
+        assert!(wrap_angle(heading).abs() < 1e-9, "heading {heading}");
+        // Just past the end of the gap, out of it, whichever way the robot faces.
+        let near_end = Point2::new(1.25, 0.5);
+        let c = obstacle_clearance(&map, near_end, max_m);
+        let heading = escape_heading(&map, near_end, c, max_m, back).expect("out of the gap");
+        let step = Vector2::new(heading.cos(), heading.sin()) * ESCAPE_PROBE_M;
+        assert!(obstacle_clearance(&map, near_end + step, max_m) > c + ESCAPE_TIE_M);
+        // Where every heading loses clearance there is none.
+        assert_eq!(escape_heading(&map, here, f64::INFINITY, max_m, back), None);
     }
 }

@@ -233,6 +233,21 @@ impl Thp {
             .expect("nodes have members")
             .clone();
         let visit = f.visit(&grid, &segment_cells, false);
+        // A look from on top or from within the blind zone left it: next from where the camera
+        // sees the floor beside it, if anywhere does.
+        if self.visits.needs_viewpoint(f.aim) {
+            let mut view = f.visit(&grid, &segment_cells, true);
+            view.target
+                .retain(|c| self.visits.needs_viewpoint(grid.index(*c)));
+            match sighted_viewpoint(map, df, f.aim, self.view_m, &ctx.cfg.camera) {
+                Some(v) => {
+                    let path = df.path_to(&grid, v).expect("reachable by construction");
+                    self.set_goal(ctx, view, Some(first), &path.cells);
+                    return Ok(Choice::Drive);
+                }
+                None => self.visits.no_viewpoint(&grid, &view),
+            }
+        }
         // Keep the current A* path if the goal did not change.
         if let Some(g) = self.mode.goal_mut() {
             if g.visit.aim == visit.aim && !g.stale {
@@ -253,7 +268,14 @@ impl Thp {
         }
         let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
-            self.visits.finished(map, &visit, false);
+            self.visits.finished(
+                map,
+                &visit,
+                false,
+                robot,
+                ctx.cfg.search.near_unknown_radius_m,
+                &ctx.cfg.camera,
+            );
             return Ok(Choice::Act(Action::LookAround));
         };
         let cells = self
@@ -274,8 +296,8 @@ impl Thp {
         tour_node: Option<usize>,
     ) -> Choice {
         let grid = *ctx.map.grid();
-        let f = grid.center(grid.cell(visit.aim));
-        let Some(v) = blind_zone_viewpoint(ctx.map, df, f, self.view_m) else {
+        let Some(v) = blind_zone_viewpoint(ctx.map, df, visit.aim, self.view_m, &ctx.cfg.camera)
+        else {
             self.mode.drive(Goal {
                 visit,
                 tour_node,

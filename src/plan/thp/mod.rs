@@ -24,8 +24,11 @@
 //!    re-run only when the goal changes, the path is blocked by a newly seen obstacle, or the robot
 //!    or its pathline strays more than `thp.drift_m` from the path.
 //!
-//! Frontiers are visited with GREEDY's rules ([`super::frontier_visit`]): stop short, look, and give
-//! up a frontier still unobserved after the robot stood on it and looked. A frontier approached once
+//! Frontiers are visited with GREEDY's rules ([`super::frontier_visit`]): stop short and look, then
+//! from on top, then from a viewpoint from which the camera sees the floor beside the frontier; a
+//! frontier is given up only after a look that could have shown it. This is how this code reads the
+//! paper's "done after the robot has looked at it": a look from within the camera's blind zone shows
+//! nothing of the floor there. A frontier approached once
 //! stays a member of its group even inside the camera's blind zone around the robot, so its second
 //! approach comes while the robot is there ([`Thp::frontiers`] says why). The run is complete when
 //! no anchor and no reachable, observable frontier is left.
@@ -64,7 +67,9 @@
 //! clusters, re-solving the TSP at every goal choice (Fig. 8); `advection = false` follows the A*
 //! path itself.
 
-use super::frontier_visit::{blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit};
+use super::frontier_visit::{
+    blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint, FrontierVisits, Visit,
+};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
 use super::view_gain::{VolumeViewParams, VolumeViews};
@@ -288,7 +293,14 @@ impl Thp {
                 )
             });
             let Some(path) = path else {
-                self.visits.finished(ctx.map, &goal.visit, false);
+                self.visits.finished(
+                    ctx.map,
+                    &goal.visit,
+                    false,
+                    robot,
+                    ctx.cfg.search.near_unknown_radius_m,
+                    &ctx.cfg.camera,
+                );
                 self.mode.stop();
                 return Ok(Action::LookAround);
             };
@@ -353,7 +365,14 @@ impl Planner for Thp {
             .mode
             .action_ended(reached, moved, |visit| visit.is_open(ctx.map))
         {
-            self.visits.finished(ctx.map, &visit, reached);
+            self.visits.finished(
+                ctx.map,
+                &visit,
+                reached,
+                ctx.pose.position(),
+                ctx.cfg.search.near_unknown_radius_m,
+                &ctx.cfg.camera,
+            );
         }
     }
 
