@@ -30,11 +30,14 @@
 //!   camera often sees a viewpoint's unknown on the way there); a viewpoint whose gain stays above
 //!   the cutoff after a visit is given up, as is one the robot failed to reach twice.
 //! - Before answering `Complete`, every frontier segment's anchor is tried as a viewpoint, so that
-//!   a random sampler's miss cannot end the run early; then each frontier seen through a gap too
+//!   a random sampler's miss cannot end the run early. The robot looks at the anchor from a cell
+//!   from which the camera sees the floor beside it ([`super::frontier_visit::sighted_viewpoint`]),
+//!   else from the anchor itself: from on top, the camera's blind zone hides that floor, and the
+//!   frontier was left for good. Then each frontier seen through a gap too
 //!   narrow to pass is looked at once from a reachable cell in line of sight
 //!   ([`super::frontier_visit::distant_view`], shared with GREEDY and THP).
 
-use super::frontier_visit::{distant_view, follow_to, line_of_sight};
+use super::frontier_visit::{distant_view, follow_to, line_of_sight, sighted_viewpoint};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::view_gain::GainModel;
 use super::{Action, Count, Plan, PlanContext, Planner};
@@ -98,9 +101,9 @@ struct Viewpoint {
     yaw: f64,
     /// Floor cells in its predicted observation (MarkCovered).
     covered: Vec<u32>,
-    /// A frontier anchor tried before answering `Complete` (see the module doc): kept whatever its
-    /// gain until reached or no longer a frontier.
-    fallback: bool,
+    /// For a viewpoint tried before answering `Complete` (see the module doc), the frontier anchor
+    /// it looks at: kept whatever its gain until reached or no frontier is left near the anchor.
+    fallback: Option<usize>,
 }
 
 /// The NBV-TSP planner.
@@ -194,7 +197,7 @@ impl Nbv {
                 let dy = (lo.y - vp.pos.y).max(vp.pos.y - hi.y).max(0.0);
                 dx * dx + dy * dy <= reach * reach
             });
-            if vp.fallback
+            if vp.fallback.is_some()
                 || !map.is_traversable(vp.cell)
                 || !reachable(vp.cell)
                 || self.given_up[vp.cell]
@@ -239,7 +242,7 @@ impl Nbv {
             gain: g.volume_m3,
             yaw: g.yaw,
             covered: cov,
-            fallback: false,
+            fallback: None,
         });
         self.stats.viewpoints_sampled.add(1.0);
         true
@@ -336,28 +339,32 @@ impl Nbv {
         }
         // Before giving up, every reachable frontier segment's anchor not yet visited is tried, at
         // any gain: unknown floor in the camera's blind zone can close a narrow passage (it is
-        // passable only near the robot), and no viewpoint short of it predicts any gain.
+        // passable only near the robot), and no viewpoint short of it predicts any gain. The robot
+        // looks at the anchor from where the camera sees the floor beside it, if anywhere does
+        // (shared with GREEDY and THP), else from the anchor itself.
         if self.viewpoints.is_empty() {
             for seg in map.frontiers() {
-                let i = grid.index(seg.anchor);
+                let aim = grid.index(seg.anchor);
                 if self.viewpoints.len() >= self.cfg.max_viewpoints {
                     break;
                 }
-                if self.anchor_done[i] || self.given_up[i] || df.cost_to(i).is_none() {
+                if self.anchor_done[aim] || self.given_up[aim] || df.cost_to(aim).is_none() {
                     continue;
                 }
-                let pos = grid.center(seg.anchor);
+                let cell =
+                    sighted_viewpoint(map, &df, aim, self.view_m, &ctx.cfg.camera).unwrap_or(aim);
+                let pos = grid.center(grid.cell(cell));
                 let g = self.model.evaluate(map, pos);
                 self.stats.gain_evaluations.add(1.0);
                 self.stats.anchor_tries.add(1.0);
                 self.viewpoints.push(Viewpoint {
-                    cell: i,
+                    cell,
                     pos,
                     // Eq. 7 needs a positive gain: count it at the cutoff at least.
                     gain: g.volume_m3.max(self.cfg.gain_cutoff_m3).max(1e-6),
                     yaw: g.yaw,
                     covered: Vec::new(),
-                    fallback: true,
+                    fallback: Some(aim),
                 });
             }
         }
@@ -468,9 +475,11 @@ impl Planner for Nbv {
         if self.steps_since_check >= RECHECK_STEPS {
             self.steps_since_check = 0;
             if let Some(vp) = self.target.and_then(|k| self.viewpoints.get(k)) {
-                if vp.fallback {
-                    // Outdated once no frontier is left within the sampling radius of it.
-                    let seen = !frontier_near(ctx.map, vp.pos, self.cfg.sample_radius_m);
+                if let Some(aim) = vp.fallback {
+                    // Outdated once no frontier is left within the sampling radius of its anchor.
+                    let grid = ctx.map.grid();
+                    let at = grid.center(grid.cell(aim));
+                    let seen = !frontier_near(ctx.map, at, self.cfg.sample_radius_m);
                     self.target_seen = seen;
                     return seen;
                 }
@@ -505,11 +514,11 @@ impl Planner for Nbv {
             return;
         }
         let cell = self.viewpoints[k].cell;
-        if reached && self.viewpoints[k].fallback {
+        if let (true, Some(aim)) = (reached, self.viewpoints[k].fallback) {
             self.stats.anchors_visited.add(1.0);
             let grid = ctx.map.grid();
             let r = (self.cfg.sample_radius_m / grid.res).ceil() as i32;
-            let c = grid.cell(cell);
+            let c = grid.cell(aim);
             for dy in -r..=r {
                 for dx in -r..=r {
                     if let Some(i) = grid.checked_index(crate::Cell::new(c.x + dx, c.y + dy)) {
