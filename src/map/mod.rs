@@ -260,13 +260,24 @@ pub mod testing {
         }
         map
     }
+
+    /// The furnished 8 m test room (`raycast::testing::furnished_room`) and a grid covering it.
+    pub fn furnished_room_setup(cfg: &Config) -> (GridSpec, MeshBvh) {
+        let grid = GridSpec::covering(
+            nalgebra::Point2::new(-0.5, -0.5),
+            nalgebra::Point2::new(8.5, 8.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let mesh = crate::sensor::raycast::testing::furnished_room(8.0);
+        (grid, MeshBvh::new(&mesh).unwrap())
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::grid::Cell;
-    use crate::sensor::raycast::testing::furnished_room;
     use crate::sensor::{DepthCamera, MeshBvh};
     use crate::Pose2;
     use nalgebra::Point2;
@@ -275,13 +286,7 @@ mod tests {
 
     fn room_setup() -> (Config, GridSpec, MeshBvh, DepthCamera) {
         let cfg = Config::default();
-        let grid = GridSpec::covering(
-            Point2::new(-0.5, -0.5),
-            Point2::new(8.5, 8.5),
-            cfg.map.band_max_m,
-            cfg.map.voxel_m,
-        );
-        let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+        let (grid, bvh) = testing::furnished_room_setup(&cfg);
         let cam = DepthCamera::new(&cfg.camera);
         (cfg, grid, bvh, cam)
     }

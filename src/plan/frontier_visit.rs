@@ -124,6 +124,18 @@ impl FrontierVisits {
         &path[..keep]
     }
 
+    /// [`FrontierVisits::finished`] with the robot's position, blind zone and camera from `ctx`.
+    pub fn finished_in(&mut self, ctx: &super::PlanContext, visit: &Visit, reached: bool) {
+        self.finished(
+            ctx.map,
+            visit,
+            reached,
+            ctx.pose.position(),
+            ctx.cfg.search.near_unknown_radius_m,
+            &ctx.cfg.camera,
+        );
+    }
+
     /// Records how an attempt at `visit` ended: `reached` its (cut-short) goal and looked from
     /// `robot`, or not. The camera does not see the floor within `blind_zone_m` of the robot, so a
     /// look counts only for the target cells beyond it:
@@ -435,21 +447,13 @@ pub fn follow_to(
 mod tests {
     use super::*;
     use crate::config::Config;
-    use crate::map::testing::seen_from;
-    use crate::sensor::raycast::testing::furnished_room;
-    use crate::sensor::MeshBvh;
+    use crate::map::testing::{furnished_room_setup, seen_from};
     use crate::Pose2;
 
     /// One look into a furnished room leaves frontier segments; a visit to the longest one.
     fn open_visit() -> (Map, Visit) {
         let cfg = Config::default();
-        let grid = GridSpec::covering(
-            Point2::new(-0.5, -0.5),
-            Point2::new(8.5, 8.5),
-            cfg.map.band_max_m,
-            cfg.map.voxel_m,
-        );
-        let bvh = MeshBvh::new(&furnished_room(8.0)).unwrap();
+        let (grid, bvh) = furnished_room_setup(&cfg);
         let map = seen_from(grid, &cfg, &bvh, [Pose2::new(1.0, 4.0, 0.0)]);
         let target = map
             .frontiers()

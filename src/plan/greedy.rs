@@ -223,14 +223,7 @@ impl Planner for Greedy {
             return;
         }
         if let Some(visit) = self.visit.take() {
-            self.visits.finished(
-                ctx.map,
-                &visit,
-                reached,
-                ctx.pose.position(),
-                ctx.cfg.search.near_unknown_radius_m,
-                &ctx.cfg.camera,
-            );
+            self.visits.finished_in(ctx, &visit, reached);
         }
     }
 }

@@ -268,14 +268,7 @@ impl Thp {
         }
         let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
-            self.visits.finished(
-                map,
-                &visit,
-                false,
-                robot,
-                ctx.cfg.search.near_unknown_radius_m,
-                &ctx.cfg.camera,
-            );
+            self.visits.finished_in(ctx, &visit, false);
             return Ok(Choice::Act(Action::LookAround));
         };
         let cells = self

@@ -293,14 +293,7 @@ impl Thp {
                 )
             });
             let Some(path) = path else {
-                self.visits.finished(
-                    ctx.map,
-                    &goal.visit,
-                    false,
-                    robot,
-                    ctx.cfg.search.near_unknown_radius_m,
-                    &ctx.cfg.camera,
-                );
+                self.visits.finished_in(ctx, &goal.visit, false);
                 self.mode.stop();
                 return Ok(Action::LookAround);
             };
@@ -365,14 +358,7 @@ impl Planner for Thp {
             .mode
             .action_ended(reached, moved, |visit| visit.is_open(ctx.map))
         {
-            self.visits.finished(
-                ctx.map,
-                &visit,
-                reached,
-                ctx.pose.position(),
-                ctx.cfg.search.near_unknown_radius_m,
-                &ctx.cfg.camera,
-            );
+            self.visits.finished_in(ctx, &visit, reached);
         }
     }
 
