@@ -139,10 +139,12 @@ impl FrontierVisits {
     /// Records how an attempt at `visit` ended: `reached` its (cut-short) goal and looked from
     /// `robot`, or not. The camera does not see the floor within `blind_zone_m` of the robot, so a
     /// look counts only for the target cells beyond it:
-    /// - a first look marks those cells approached (the others stay as they were: from afar they
-    ///   get a first look again, from close by a step back to a viewpoint);
-    /// - a look from the frontier itself gives up the cells that had their look from a distance;
-    /// - a look from a viewpoint chosen to see the frontier (`near_view`) gives up the target.
+    /// - a first look marks those cells approached, and the cells inside the blind zone `blinded`;
+    /// - a look from the frontier itself marks the approached cells `topped`, and gives up those
+    ///   topped before;
+    /// - a look from a viewpoint chosen to see the frontier (`near_view`) gives up the cells it
+    ///   could see (the sight test to the unknown voxel beside each), and any cell on its second
+    ///   such look.
     ///
     /// Giving up every target cell after a look from on top of it ended runs `complete` with
     /// frontiers whose floor no look had shown (the segment grew, or the first look stood too close).
