@@ -215,11 +215,14 @@ struct TriangleIndex {
     occupied: Vec<bool>,
     /// Per floor cell, its occupied layers, one bit each (empty when the grid has over 64 layers).
     layers: Vec<u64>,
-    /// Cell-major: the triangles of the voxel of floor cell `c` and layer `iz` are
-    /// `tris[starts[c * nz + iz]..starts[c * nz + iz + 1]]`. A pixel column's rays meet a wall in
-    /// one cell at neighbouring layers, so their lists lie together in memory.
-    starts: Vec<u32>,
-    tris: Vec<u32>,
+    /// Cell-major, per voxel of floor cell `c` and layer `iz`: where its triangle list starts in
+    /// `lists` (`list[c * nz + iz]`, 0 for an empty list).
+    list: Vec<u32>,
+    /// The distinct lists, each its length then its triangles (ascending). Voxels with the same
+    /// triangles share one list (a wall's face covers every layer of its cell, and the cells on
+    /// both sides of a cell line it lies on), so a ray that has been tested against a list knows it
+    /// from its start alone (see [`RayHits::tested`]).
+    lists: Vec<u32>,
     nz: usize,
 }
 
@@ -228,19 +231,23 @@ impl TriangleIndex {
         let grid = &gt.grid;
         let n = grid.voxels();
         let (cells, nz) = (grid.cells(), grid.nz);
-        let mut starts = Vec::with_capacity(n + 1);
-        let mut tris = Vec::new();
         let occupied: Vec<bool> = (0..n).map(|v| gt.occupied(v)).collect();
+        let mut list = Vec::with_capacity(n);
+        let mut stored = vec![0u32];
+        let mut known: std::collections::HashMap<&[u32], u32> = std::collections::HashMap::new();
+        known.insert(&[], 0);
         for c in 0..cells {
             for iz in 0..nz {
                 let v = iz * cells + c;
-                starts.push(tris.len() as u32);
-                if occupied[v] {
-                    tris.extend_from_slice(lists.of(v));
-                }
+                let tris = if occupied[v] { lists.of(v) } else { &[] };
+                list.push(*known.entry(tris).or_insert_with(|| {
+                    let start = stored.len() as u32;
+                    stored.push(tris.len() as u32);
+                    stored.extend_from_slice(tris);
+                    start
+                }));
             }
         }
-        starts.push(tris.len() as u32);
         let mut layers = Vec::new();
         if nz <= 64 {
             layers = vec![0u64; cells];
@@ -252,17 +259,24 @@ impl TriangleIndex {
         TriangleIndex {
             occupied,
             layers,
-            starts,
-            tris,
+            list,
+            lists: stored,
             nz,
         }
     }
 
-    /// The triangles of the voxel of floor cell `c` and layer `iz`.
+    /// The triangle list of the voxel of floor cell `c` and layer `iz`: its start in `lists`.
     #[inline]
-    fn of(&self, c: usize, iz: usize) -> &[u32] {
-        let k = c * self.nz + iz;
-        &self.tris[self.starts[k] as usize..self.starts[k + 1] as usize]
+    fn list(&self, c: usize, iz: usize) -> u32 {
+        self.list[c * self.nz + iz]
+    }
+
+    /// The triangles of the list that starts at `start`.
+    #[inline]
+    fn triangles(&self, start: u32) -> &[u32] {
+        let start = start as usize;
+        let len = self.lists[start] as usize;
+        &self.lists[start + 1..start + 1 + len]
     }
 }
 
@@ -290,12 +304,12 @@ impl<'a> VoxelCaster<'a> {
         }
     }
 
-    /// The nearest hit of the ray on the triangles of the occupied voxel of floor cell `c` and
-    /// layer `iz`, or infinity. Kept out of line so that the walk's loop stays small.
+    /// The nearest hit of the ray on the triangles of list `list` (see [`TriangleIndex::list`]), or
+    /// infinity. Kept out of line so that the walk's loop stays small.
     #[inline(never)]
-    fn hit_in(&self, c: usize, iz: usize, origin: Point3<f32>, dir: Vector3<f32>) -> f64 {
+    fn hit_in(&self, list: u32, origin: Point3<f32>, dir: Vector3<f32>) -> f64 {
         self.bvh
-            .cast_among(origin, dir, self.tris.of(c, iz), self.range.1)
+            .cast_among(origin, dir, self.tris.triangles(list), self.range.1)
             .map_or(f64::INFINITY, |t| t as f64)
     }
 
@@ -332,7 +346,7 @@ impl<'a> VoxelCaster<'a> {
         traverse_while(self.grid, o, d, cut, |v, t_in, t_out| {
             if occupied[v] {
                 let (c, iz) = self.grid.voxel_parts(v);
-                best = best.min(self.hit_in(c, iz, origin, dir));
+                best = best.min(self.hit_in(self.tris.list(c, iz), origin, dir));
             }
             // A face on this voxel's entry face can lie a hair before it in world coordinates (the
             // voxelisation is half-open): the map's ray ends there and never enters this voxel.
@@ -388,8 +402,25 @@ struct ColumnRay {
     z_clamped: bool,
     /// `t1` times the ray's horizontal length: how far from the camera, on the floor, it ends.
     h1: f64,
+}
+
+/// What a sweep has found of one ray of its column so far (see [`VoxelCaster::sweep_column`]): kept
+/// apart from the [`ColumnRay`]s, which are the same for every position and so are not copied.
+#[derive(Clone, Copy, Debug)]
+struct RayHits {
     /// Nearest hit found so far (infinity until the ray has entered an occupied voxel).
     best: f64,
+    /// The triangle list ([`TriangleIndex::list`]) of the last occupied voxel the ray was tested
+    /// against: a ray that meets a wall lying on a cell line finds the same list in the voxels on
+    /// both sides (about a third of the lists met were such repeats on `office_large`).
+    tested: u32,
+}
+
+impl RayHits {
+    const NONE: RayHits = RayHits {
+        best: f64::INFINITY,
+        tested: u32::MAX,
+    };
 }
 
 /// A pixel column's rays as [`VoxelCaster::sweep_column`] sees them, whatever the position (see
@@ -430,7 +461,7 @@ struct PathCell {
 /// Scratch space of one worker of the sweep.
 #[derive(Default)]
 struct SweepScratch {
-    rays: Vec<ColumnRay>,
+    hits: Vec<RayHits>,
     marks: Vec<(usize, u64)>,
     buf: Vec<usize>,
     /// The marks of the current position in cells beyond the reachable region.
@@ -560,11 +591,11 @@ impl VoxelCaster<'_> {
                     let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
                     sc.beyond.clear();
                     for (column, setup) in columns.chunks_exact(h).zip(&setups) {
-                        sc.rays.clear();
-                        sc.rays.extend_from_slice(column);
+                        sc.hits.clear();
+                        sc.hits.resize(h, RayHits::NONE);
                         sc.marks.clear();
                         let swept = setup.as_ref().map_or(Err(Ambiguous), |setup| {
-                            self.sweep_column(origin, &mut sc.rays, setup, &mut sc.marks)
+                            self.sweep_column(origin, column, setup, &mut sc.hits, &mut sc.marks)
                         });
                         if swept.is_ok() {
                             for &(c, m) in &sc.marks {
@@ -575,9 +606,8 @@ impl VoxelCaster<'_> {
                             }
                         } else {
                             by_rays += 1;
-                            for k in 0..h {
-                                let dir = sc.rays[k].dir;
-                                for &v in self.observe(origin, dir, &mut sc.buf) {
+                            for ray in column {
+                                for &v in self.observe(origin, ray.dir, &mut sc.buf) {
                                     let (c, iz) = grid.voxel_parts(v);
                                     seen[c] |= 1 << iz;
                                     if beyond[c] {
@@ -650,7 +680,6 @@ impl VoxelCaster<'_> {
             t1,
             z_clamped: face <= cut,
             h1: t1 * (d[0] * d[0] + d[1] * d[1]).sqrt(),
-            best: f64::INFINITY,
         }
     }
 
@@ -745,8 +774,9 @@ impl VoxelCaster<'_> {
     fn sweep_column(
         &self,
         origin: Point3<f32>,
-        rays: &mut [ColumnRay],
+        rays: &[ColumnRay],
         setup: &ColumnSetup,
+        hits: &mut [RayHits],
         marks: &mut Vec<(usize, u64)>,
     ) -> std::result::Result<(), Ambiguous> {
         let grid = self.grid;
@@ -883,105 +913,104 @@ impl VoxelCaster<'_> {
             }
             // One ray through this cell's layers, voxel by voxel, with observe's rule for hits.
             // Returns whether the ray stops here.
-            let walk = |k: usize,
-                        rays: &mut [ColumnRay],
-                        here: &mut u64,
-                        marks: &mut Vec<(usize, u64)>| {
-                let ray = rays[k];
-                let ends = enders >> k & 1 == 1;
-                let t0 = t_in(&ray);
-                let (t_end, clamped) = t_end(&ray, ends);
-                let l0 = layer(z_at(&ray, t0), false)?;
-                let l1 = layer(z_at(&ray, t_end), clamped)?;
-                let up = ray.d[2] > 0.0;
-                if ray.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
-                    // No occupied voxel on the way through this cell: all its layers, no hit.
-                    *here |= span(l0, l1);
-                    return Ok(ends);
-                }
-                let mut best = ray.best;
-                let mut l = l0;
-                let mut stopped = false;
-                let mut mask = 0u64;
-                loop {
-                    let tv_in = if l == l0 {
-                        t0
-                    } else {
-                        let z = if up {
-                            l as f64 * res
+            let walk =
+                |k: usize, hits: &mut [RayHits], here: &mut u64, marks: &mut Vec<(usize, u64)>| {
+                    let ray = &rays[k];
+                    let ends = enders >> k & 1 == 1;
+                    let t0 = t_in(ray);
+                    let (t_end, clamped) = t_end(ray, ends);
+                    let l0 = layer(z_at(ray, t0), false)?;
+                    let l1 = layer(z_at(ray, t_end), clamped)?;
+                    let up = ray.d[2] > 0.0;
+                    let hit = &mut hits[k];
+                    if hit.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
+                        // No occupied voxel on the way through this cell: all its layers, no hit.
+                        *here |= span(l0, l1);
+                        return Ok(ends);
+                    }
+                    let mut best = hit.best;
+                    let mut l = l0;
+                    let mut stopped = false;
+                    let mut mask = 0u64;
+                    loop {
+                        let tv_in = if l == l0 {
+                            t0
                         } else {
-                            (l + 1) as f64 * res
+                            let z = if up {
+                                l as f64 * res
+                            } else {
+                                (l + 1) as f64 * res
+                            };
+                            (z - o[2]) * ray.inv[2]
                         };
-                        (z - o[2]) * ray.inv[2]
-                    };
-                    let tv_out = if l == l1 {
-                        t_end
-                    } else {
-                        let z = if up {
-                            (l + 1) as f64 * res
+                        let tv_out = if l == l1 {
+                            t_end
                         } else {
-                            l as f64 * res
+                            let z = if up {
+                                (l + 1) as f64 * res
+                            } else {
+                                l as f64 * res
+                            };
+                            (z - o[2]) * ray.inv[2]
                         };
-                        (z - o[2]) * ray.inv[2]
-                    };
-                    // `occ` holds the cell's occupied layers: `tris.occupied` without a load.
-                    if occ >> l & 1 == 1 {
-                        best = best.min(self.hit_in(step.cell, l, origin, ray.dir));
+                        // `occ` holds the cell's occupied layers: `tris.occupied` without a load.
+                        if occ >> l & 1 == 1 {
+                            let list = self.tris.list(step.cell, l);
+                            // The ray's nearest hit is the least over every triangle it was tested
+                            // against, in any order: a list tested again changes nothing.
+                            if list != hit.tested {
+                                hit.tested = list;
+                                best = best.min(self.hit_in(list, origin, ray.dir));
+                            }
+                        }
+                        if best <= tv_in {
+                            stopped = true;
+                            break;
+                        }
+                        mask |= 1 << l;
+                        if best <= tv_out {
+                            stopped = true;
+                            break;
+                        }
+                        if l == l1 {
+                            break;
+                        }
+                        l = if up { l + 1 } else { l - 1 };
                     }
-                    if best <= tv_in {
-                        stopped = true;
-                        break;
-                    }
-                    mask |= 1 << l;
-                    if best <= tv_out {
-                        stopped = true;
-                        break;
-                    }
-                    if l == l1 {
-                        break;
-                    }
-                    l = if up { l + 1 } else { l - 1 };
-                }
-                *here |= mask;
-                rays[k].best = best;
-                let done = stopped || ends;
-                if done && best.is_finite() {
-                    if best < self.range.0 as f64 {
-                        // No reading: the map integrates nothing of this ray, not even the cells
-                        // already marked. Rare (a hit within the minimum range): walk ray by ray.
-                        return Err(Ambiguous);
-                    }
-                    let p = Point3::new(o[0], o[1], o[2]) + ray.dir.cast::<f64>() * best;
-                    // `grid.voxel_of(p)`, its floors taken without a libm call (the same values).
-                    let ix = floor_i64((p.x - grid.origin_x) / res);
-                    let iy = floor_i64((p.y - grid.origin_y) / res);
-                    let iz = floor_i64(p.z / res);
-                    if (0..dims[0]).contains(&ix)
-                        && (0..dims[1]).contains(&iy)
-                        && (0..nz as i64).contains(&iz)
-                    {
-                        let c = (iy * dims[0] + ix) as usize;
-                        // Usually this cell's: joined to its mark rather than a mark of its own.
-                        if c == step.cell {
-                            *here |= 1 << iz;
-                        } else {
-                            marks.push((c, 1 << iz));
+                    *here |= mask;
+                    hit.best = best;
+                    let done = stopped || ends;
+                    if done && best.is_finite() {
+                        if best < self.range.0 as f64 {
+                            // No reading: the map integrates nothing of this ray, not even the cells
+                            // already marked. Rare (a hit within the minimum range): walk ray by ray.
+                            return Err(Ambiguous);
+                        }
+                        let p = Point3::new(o[0], o[1], o[2]) + ray.dir.cast::<f64>() * best;
+                        // `grid.voxel_of(p)`, its floors taken without a libm call (the same values).
+                        let ix = floor_i64((p.x - grid.origin_x) / res);
+                        let iy = floor_i64((p.y - grid.origin_y) / res);
+                        let iz = floor_i64(p.z / res);
+                        if (0..dims[0]).contains(&ix)
+                            && (0..dims[1]).contains(&iy)
+                            && (0..nz as i64).contains(&iz)
+                        {
+                            let c = (iy * dims[0] + ix) as usize;
+                            // Usually this cell's: joined to its mark rather than a mark of its own.
+                            if c == step.cell {
+                                *here |= 1 << iz;
+                            } else {
+                                marks.push((c, 1 << iz));
+                            }
                         }
                     }
-                }
-                Ok(done)
-            };
-            let mut stopped = 0u64;
+                    Ok(done)
+                };
             // The layers marked in this cell.
             let mut here = 0u64;
-            let mut m = single;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if walk(k, rays, &mut here, marks)? {
-                    stopped |= 1 << k;
-                }
-            }
+            // The rays walked one by one here: the single rays, and the runs that meet an
+            // occupied voxel (gathered first, so that the walk has one call site and is inlined).
+            let mut walked = single;
             let mut m = runs;
             while m != 0 {
                 let a = m.trailing_zeros() as usize;
@@ -1014,17 +1043,19 @@ impl VoxelCaster<'_> {
                 if cover & occ & occ_mask == 0 {
                     here |= cover;
                 } else {
-                    let mut k_m = run;
-                    while k_m != 0 {
-                        let k = k_m.trailing_zeros() as usize;
-                        k_m &= k_m - 1;
-                        if walk(k, rays, &mut here, marks)? {
-                            stopped |= 1 << k;
-                        } else if rays[k].best.is_finite() {
-                            runs &= !(1 << k);
-                            single |= 1 << k;
-                        }
-                    }
+                    walked |= run;
+                }
+            }
+            let mut stopped = 0u64;
+            while walked != 0 {
+                let k = walked.trailing_zeros() as usize;
+                walked &= walked - 1;
+                if walk(k, hits, &mut here, marks)? {
+                    stopped |= 1 << k;
+                } else if hits[k].best.is_finite() {
+                    // A hit beyond this cell: walked one by one from now on.
+                    runs &= !(1 << k);
+                    single |= 1 << k;
                 }
             }
             if here != 0 {
