@@ -375,6 +375,11 @@ fn world_ray(sin: f32, cos: f32, d: &Vector3<f32>) -> Vector3<f32> {
     Vector3::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y, d.z)
 }
 
+/// A part of a run that meets an occupied voxel in a cell is halved while it holds more rays than
+/// this (see [`VoxelCaster::sweep_column`]): the halves that meet none are marked as runs, the rest
+/// walked one by one.
+const MIN_SPLIT: usize = 4;
+
 /// Closer than this to a voxel boundary, a distance or height computed here might fall on the other
 /// side of it than the map's voxel walk puts it (the two round differently, by ~1e-15 m): such a
 /// pixel column is walked ray by ray instead.
@@ -766,9 +771,12 @@ impl VoxelCaster<'_> {
     /// meets no occupied voxel in the cell makes known exactly the span of layers between its top
     /// ray's highest point and its bottom ray's lowest one (and the lowest/highest point of a ray
     /// that ends in the cell). Those runs cost a few operations per cell instead of a voxel walk per
-    /// ray. Where a run meets an occupied voxel, each of its rays is walked through the cell's
-    /// layers one voxel at a time, with `observe`'s rule for hits, and a ray that has found a hit
-    /// beyond the cell goes on that way. Every distance and height is computed from the ray's own
+    /// ray. Where a run meets an occupied voxel, it is halved (down to [`MIN_SPLIT`] rays): a part
+    /// that meets none is a run of its own (above or below a table top, say), and the rays of the
+    /// rest are walked through the cell's layers one voxel at a time, with `observe`'s rule for
+    /// hits; a ray that has found a hit beyond the cell goes on that way. (A part, like a run, has
+    /// only the heights of its top and bottom rays and of its rays that end in the cell checked
+    /// against the layer boundaries.) Every distance and height is computed from the ray's own
     /// direction; where one lies within [`TIE_M`] of a voxel boundary (so that rounding could decide
     /// which side the map's walk takes), the column is given up ([`Ambiguous`]) and walked ray by ray.
     fn sweep_column(
@@ -1011,17 +1019,12 @@ impl VoxelCaster<'_> {
             // The rays walked one by one here: the single rays, and the runs that meet an
             // occupied voxel (gathered first, so that the walk has one call site and is inlined).
             let mut walked = single;
-            let mut m = runs;
-            while m != 0 {
-                let a = m.trailing_zeros() as usize;
-                let len = (!(m >> a)).trailing_zeros() as usize;
-                let b = a + len - 1;
-                let run = span(a, b);
-                m &= !run;
-                // The run's lowest and highest points: its top and bottom rays, and rays ending here.
+            // The layers of a part `a..=b` of a run: from its lowest to its highest point, which are
+            // those of its top and bottom rays and of its rays that end here.
+            let cover = |a: usize, b: usize| -> std::result::Result<u64, Ambiguous> {
                 let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
                 let (mut c_min, mut c_max) = (false, false);
-                let mut ext = (enders & run) | 1 << a | 1 << b;
+                let mut ext = (enders & span(a, b)) | 1 << a | 1 << b;
                 while ext != 0 {
                     let k = ext.trailing_zeros() as usize;
                     ext &= ext - 1;
@@ -1038,12 +1041,41 @@ impl VoxelCaster<'_> {
                         }
                     }
                 }
-                let (la, lb) = (layer(z_min, c_min)?, layer(z_max, c_max)?);
-                let cover = span(la, lb);
-                if cover & occ & occ_mask == 0 {
-                    here |= cover;
-                } else {
-                    walked |= run;
+                Ok(span(layer(z_min, c_min)?, layer(z_max, c_max)?))
+            };
+            let blocked = occ & occ_mask;
+            // Parts of runs that meet an occupied voxel, still to be split.
+            let mut parts = [(0usize, 0usize); 16];
+            let mut m = runs;
+            while m != 0 {
+                let a = m.trailing_zeros() as usize;
+                let len = (!(m >> a)).trailing_zeros() as usize;
+                let b = a + len - 1;
+                m &= !span(a, b);
+                let mut todo = 0;
+                let mut part = (a, b);
+                loop {
+                    let (a, b) = part;
+                    let layers = cover(a, b)?;
+                    if layers & blocked == 0 {
+                        here |= layers;
+                    } else if b - a < MIN_SPLIT || layers & self.band_mask & !blocked == 0 {
+                        // Too few rays to split, or every ray meets an occupied voxel (each passes
+                        // a band layer of the part's, all occupied): walked one by one.
+                        walked |= span(a, b);
+                    } else {
+                        // The halves that meet no occupied voxel are runs of their own.
+                        let mid = (a + b) / 2;
+                        parts[todo] = (mid + 1, b);
+                        part = (a, mid);
+                        todo += 1;
+                        continue;
+                    }
+                    if todo == 0 {
+                        break;
+                    }
+                    todo -= 1;
+                    part = parts[todo];
                 }
             }
             let mut stopped = 0u64;
