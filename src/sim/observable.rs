@@ -809,19 +809,23 @@ impl VoxelCaster<'_> {
         if (0..2).any(|a| idx[a] < 0 || idx[a] >= dims[a]) {
             return Err(Ambiguous);
         }
+        // The grid line of axis `a` ahead of the cell `idx[a]`, and how far along `u` it lies (kept
+        // from cell to cell, and made again for the axis stepped only).
+        let ahead = |a: usize, i: i64| {
+            let line = if u[a] > 0.0 {
+                lo[a] + (i + 1) as f64 * res
+            } else if u[a] < 0.0 {
+                lo[a] + i as f64 * res
+            } else {
+                return (0.0, f64::INFINITY);
+            };
+            (line, (line - o[a]) / u[a])
+        };
+        let (mut line, mut next) = ([0.0f64; 2], [f64::INFINITY; 2]);
+        for a in 0..2 {
+            (line[a], next[a]) = ahead(a, idx[a]);
+        }
         let mut next_cell = || -> std::result::Result<PathCell, Ambiguous> {
-            let mut next = [f64::INFINITY; 2];
-            let mut line = [0.0f64; 2];
-            for a in 0..2 {
-                if u[a] > 0.0 {
-                    line[a] = lo[a] + (idx[a] + 1) as f64 * res;
-                } else if u[a] < 0.0 {
-                    line[a] = lo[a] + idx[a] as f64 * res;
-                } else {
-                    continue;
-                }
-                next[a] = (line[a] - o[a]) / u[a];
-            }
             let a = if next[0] < next[1] { 0 } else { 1 };
             let h_out = next[a];
             if !h_out.is_finite() {
@@ -835,16 +839,16 @@ impl VoxelCaster<'_> {
             if corner <= h_out * drift[a] + TIE_M {
                 return Err(Ambiguous);
             }
+            let cell = (idx[1] * dims[0] + idx[0]) as usize;
+            let exit = line[a];
             idx[a] += if u[a] > 0.0 { 1 } else { -1 };
+            (line[a], next[a]) = ahead(a, idx[a]);
             let leaves = idx[a] < 0 || idx[a] >= dims[a];
             let last = leaves || h_out > h_max + 1e-6;
-            let prev = if u[a] > 0.0 { idx[a] - 1 } else { idx[a] + 1 };
-            let mut here = idx;
-            here[a] = prev;
             Ok(PathCell {
-                cell: (here[1] * dims[0] + here[0]) as usize,
+                cell,
                 exit_axis: a,
-                exit: line[a],
+                exit,
                 h_out,
                 last,
             })
