@@ -239,7 +239,11 @@ impl TriangleIndex {
         for c in 0..cells {
             for iz in 0..nz {
                 let v = iz * cells + c;
-                let tris = if occupied[v] { lists.of(v) } else { &[] };
+                if !occupied[v] {
+                    list.push(0);
+                    continue;
+                }
+                let tris = lists.of(v);
                 list.push(*known.entry(tris).or_insert_with(|| {
                     let start = stored.len() as u32;
                     stored.push(tris.len() as u32);
@@ -391,6 +395,19 @@ const TIE_M: f64 = 1e-9;
 fn floor_i64(x: f64) -> i64 {
     let t = x as i64;
     t - (x < t as f64) as i64
+}
+
+/// [`floor_i64`]`(x)`, and the same as an `f64` taken from the conversion already made rather than
+/// converted back (the conversions are the slow part of the sweep's layer lookups).
+#[inline(always)]
+fn floor_both(x: f64) -> (i64, f64) {
+    let t = x as i64;
+    let tf = t as f64;
+    if x < tf {
+        (t - 1, tf - 1.0)
+    } else {
+        (t, tf)
+    }
 }
 
 /// One ray of a pixel column during a sweep (see [`VoxelCaster::sweep_column`]).
@@ -835,7 +852,7 @@ impl VoxelCaster<'_> {
             let b = 1 - a;
             let along = o[b] + u[b] * h_out;
             let f = (along - lo[b]) * inv_res;
-            let corner = (f - floor_i64(f + 0.5) as f64).abs() * res;
+            let corner = (f - floor_both(f + 0.5).1).abs() * res;
             if corner <= h_out * drift[a] + TIE_M {
                 return Err(Ambiguous);
             }
@@ -857,8 +874,8 @@ impl VoxelCaster<'_> {
         let z_at = |ray: &ColumnRay, t: f64| o[2] + ray.d[2] * t;
         // The layer of height `z`, or Ambiguous when `z` is within TIE_M of a layer boundary.
         let layer = |z: f64, clamped: bool| -> std::result::Result<usize, Ambiguous> {
-            let l = floor_i64(z * inv_res);
-            let base = l as f64 * res;
+            let (l, l_f) = floor_both(z * inv_res);
+            let base = l_f * res;
             if !clamped && (z - base < TIE_M || base + res - z < TIE_M) {
                 return Err(Ambiguous);
             }
