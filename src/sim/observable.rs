@@ -215,11 +215,14 @@ struct TriangleIndex {
     occupied: Vec<bool>,
     /// Per floor cell, its occupied layers, one bit each (empty when the grid has over 64 layers).
     layers: Vec<u64>,
-    /// Cell-major: the triangles of the voxel of floor cell `c` and layer `iz` are
-    /// `tris[starts[c * nz + iz]..starts[c * nz + iz + 1]]`. A pixel column's rays meet a wall in
-    /// one cell at neighbouring layers, so their lists lie together in memory.
-    starts: Vec<u32>,
-    tris: Vec<u32>,
+    /// Cell-major, per voxel of floor cell `c` and layer `iz`: where its triangle list starts in
+    /// `lists` (`list[c * nz + iz]`, 0 for an empty list).
+    list: Vec<u32>,
+    /// The distinct lists, each its length then its triangles (ascending). Voxels with the same
+    /// triangles share one list (a wall's face covers every layer of its cell, and the cells on
+    /// both sides of a cell line it lies on), so a ray that has been tested against a list knows it
+    /// from its start alone (see [`RayHits::tested`]).
+    lists: Vec<u32>,
     nz: usize,
 }
 
@@ -228,19 +231,27 @@ impl TriangleIndex {
         let grid = &gt.grid;
         let n = grid.voxels();
         let (cells, nz) = (grid.cells(), grid.nz);
-        let mut starts = Vec::with_capacity(n + 1);
-        let mut tris = Vec::new();
         let occupied: Vec<bool> = (0..n).map(|v| gt.occupied(v)).collect();
+        let mut list = Vec::with_capacity(n);
+        let mut stored = vec![0u32];
+        let mut known: std::collections::HashMap<&[u32], u32> = std::collections::HashMap::new();
+        known.insert(&[], 0);
         for c in 0..cells {
             for iz in 0..nz {
                 let v = iz * cells + c;
-                starts.push(tris.len() as u32);
-                if occupied[v] {
-                    tris.extend_from_slice(lists.of(v));
+                if !occupied[v] {
+                    list.push(0);
+                    continue;
                 }
+                let tris = lists.of(v);
+                list.push(*known.entry(tris).or_insert_with(|| {
+                    let start = stored.len() as u32;
+                    stored.push(tris.len() as u32);
+                    stored.extend_from_slice(tris);
+                    start
+                }));
             }
         }
-        starts.push(tris.len() as u32);
         let mut layers = Vec::new();
         if nz <= 64 {
             layers = vec![0u64; cells];
@@ -252,17 +263,24 @@ impl TriangleIndex {
         TriangleIndex {
             occupied,
             layers,
-            starts,
-            tris,
+            list,
+            lists: stored,
             nz,
         }
     }
 
-    /// The triangles of the voxel of floor cell `c` and layer `iz`.
+    /// The triangle list of the voxel of floor cell `c` and layer `iz`: its start in `lists`.
     #[inline]
-    fn of(&self, c: usize, iz: usize) -> &[u32] {
-        let k = c * self.nz + iz;
-        &self.tris[self.starts[k] as usize..self.starts[k + 1] as usize]
+    fn list(&self, c: usize, iz: usize) -> u32 {
+        self.list[c * self.nz + iz]
+    }
+
+    /// The triangles of the list that starts at `start`.
+    #[inline]
+    fn triangles(&self, start: u32) -> &[u32] {
+        let start = start as usize;
+        let len = self.lists[start] as usize;
+        &self.lists[start + 1..start + 1 + len]
     }
 }
 
@@ -290,12 +308,12 @@ impl<'a> VoxelCaster<'a> {
         }
     }
 
-    /// The nearest hit of the ray on the triangles of the occupied voxel of floor cell `c` and
-    /// layer `iz`, or infinity. Kept out of line so that the walk's loop stays small.
+    /// The nearest hit of the ray on the triangles of list `list` (see [`TriangleIndex::list`]), or
+    /// infinity. Kept out of line so that the walk's loop stays small.
     #[inline(never)]
-    fn hit_in(&self, c: usize, iz: usize, origin: Point3<f32>, dir: Vector3<f32>) -> f64 {
+    fn hit_in(&self, list: u32, origin: Point3<f32>, dir: Vector3<f32>) -> f64 {
         self.bvh
-            .cast_among(origin, dir, self.tris.of(c, iz), self.range.1)
+            .cast_among(origin, dir, self.tris.triangles(list), self.range.1)
             .map_or(f64::INFINITY, |t| t as f64)
     }
 
@@ -332,7 +350,7 @@ impl<'a> VoxelCaster<'a> {
         traverse_while(self.grid, o, d, cut, |v, t_in, t_out| {
             if occupied[v] {
                 let (c, iz) = self.grid.voxel_parts(v);
-                best = best.min(self.hit_in(c, iz, origin, dir));
+                best = best.min(self.hit_in(self.tris.list(c, iz), origin, dir));
             }
             // A face on this voxel's entry face can lie a hair before it in world coordinates (the
             // voxelisation is half-open): the map's ray ends there and never enters this voxel.
@@ -361,6 +379,11 @@ fn world_ray(sin: f32, cos: f32, d: &Vector3<f32>) -> Vector3<f32> {
     Vector3::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y, d.z)
 }
 
+/// A part of a run that meets an occupied voxel in a cell is halved while it holds more rays than
+/// this (see [`VoxelCaster::sweep_column`]): the halves that meet none are marked as runs, the rest
+/// walked one by one.
+const MIN_SPLIT: usize = 4;
+
 /// Closer than this to a voxel boundary, a distance or height computed here might fall on the other
 /// side of it than the map's voxel walk puts it (the two round differently, by ~1e-15 m): such a
 /// pixel column is walked ray by ray instead.
@@ -372,6 +395,19 @@ const TIE_M: f64 = 1e-9;
 fn floor_i64(x: f64) -> i64 {
     let t = x as i64;
     t - (x < t as f64) as i64
+}
+
+/// [`floor_i64`]`(x)`, and the same as an `f64` taken from the conversion already made rather than
+/// converted back (the conversions are the slow part of the sweep's layer lookups).
+#[inline(always)]
+fn floor_both(x: f64) -> (i64, f64) {
+    let t = x as i64;
+    let tf = t as f64;
+    if x < tf {
+        (t - 1, tf - 1.0)
+    } else {
+        (t, tf)
+    }
 }
 
 /// One ray of a pixel column during a sweep (see [`VoxelCaster::sweep_column`]).
@@ -388,8 +424,25 @@ struct ColumnRay {
     z_clamped: bool,
     /// `t1` times the ray's horizontal length: how far from the camera, on the floor, it ends.
     h1: f64,
+}
+
+/// What a sweep has found of one ray of its column so far (see [`VoxelCaster::sweep_column`]): kept
+/// apart from the [`ColumnRay`]s, which are the same for every position and so are not copied.
+#[derive(Clone, Copy, Debug)]
+struct RayHits {
     /// Nearest hit found so far (infinity until the ray has entered an occupied voxel).
     best: f64,
+    /// The triangle list ([`TriangleIndex::list`]) of the last occupied voxel the ray was tested
+    /// against: a ray that meets a wall lying on a cell line finds the same list in the voxels on
+    /// both sides (about a third of the lists met were such repeats on `office_large`).
+    tested: u32,
+}
+
+impl RayHits {
+    const NONE: RayHits = RayHits {
+        best: f64::INFINITY,
+        tested: u32::MAX,
+    };
 }
 
 /// A pixel column's rays as [`VoxelCaster::sweep_column`] sees them, whatever the position (see
@@ -430,7 +483,7 @@ struct PathCell {
 /// Scratch space of one worker of the sweep.
 #[derive(Default)]
 struct SweepScratch {
-    rays: Vec<ColumnRay>,
+    hits: Vec<RayHits>,
     marks: Vec<(usize, u64)>,
     buf: Vec<usize>,
     /// The marks of the current position in cells beyond the reachable region.
@@ -560,11 +613,11 @@ impl VoxelCaster<'_> {
                     let origin = Point3::new(c.x as f32, c.y as f32, camera.mount_height());
                     sc.beyond.clear();
                     for (column, setup) in columns.chunks_exact(h).zip(&setups) {
-                        sc.rays.clear();
-                        sc.rays.extend_from_slice(column);
+                        sc.hits.clear();
+                        sc.hits.resize(h, RayHits::NONE);
                         sc.marks.clear();
                         let swept = setup.as_ref().map_or(Err(Ambiguous), |setup| {
-                            self.sweep_column(origin, &mut sc.rays, setup, &mut sc.marks)
+                            self.sweep_column(origin, column, setup, &mut sc.hits, &mut sc.marks)
                         });
                         if swept.is_ok() {
                             for &(c, m) in &sc.marks {
@@ -575,9 +628,8 @@ impl VoxelCaster<'_> {
                             }
                         } else {
                             by_rays += 1;
-                            for k in 0..h {
-                                let dir = sc.rays[k].dir;
-                                for &v in self.observe(origin, dir, &mut sc.buf) {
+                            for ray in column {
+                                for &v in self.observe(origin, ray.dir, &mut sc.buf) {
                                     let (c, iz) = grid.voxel_parts(v);
                                     seen[c] |= 1 << iz;
                                     if beyond[c] {
@@ -650,7 +702,6 @@ impl VoxelCaster<'_> {
             t1,
             z_clamped: face <= cut,
             h1: t1 * (d[0] * d[0] + d[1] * d[1]).sqrt(),
-            best: f64::INFINITY,
         }
     }
 
@@ -737,16 +788,20 @@ impl VoxelCaster<'_> {
     /// meets no occupied voxel in the cell makes known exactly the span of layers between its top
     /// ray's highest point and its bottom ray's lowest one (and the lowest/highest point of a ray
     /// that ends in the cell). Those runs cost a few operations per cell instead of a voxel walk per
-    /// ray. Where a run meets an occupied voxel, each of its rays is walked through the cell's
-    /// layers one voxel at a time, with `observe`'s rule for hits, and a ray that has found a hit
-    /// beyond the cell goes on that way. Every distance and height is computed from the ray's own
+    /// ray. Where a run meets an occupied voxel, it is halved (down to [`MIN_SPLIT`] rays): a part
+    /// that meets none is a run of its own (above or below a table top, say), and the rays of the
+    /// rest are walked through the cell's layers one voxel at a time, with `observe`'s rule for
+    /// hits; a ray that has found a hit beyond the cell goes on that way. (A part, like a run, has
+    /// only the heights of its top and bottom rays and of its rays that end in the cell checked
+    /// against the layer boundaries.) Every distance and height is computed from the ray's own
     /// direction; where one lies within [`TIE_M`] of a voxel boundary (so that rounding could decide
     /// which side the map's walk takes), the column is given up ([`Ambiguous`]) and walked ray by ray.
     fn sweep_column(
         &self,
         origin: Point3<f32>,
-        rays: &mut [ColumnRay],
+        rays: &[ColumnRay],
         setup: &ColumnSetup,
+        hits: &mut [RayHits],
         marks: &mut Vec<(usize, u64)>,
     ) -> std::result::Result<(), Ambiguous> {
         let grid = self.grid;
@@ -771,19 +826,23 @@ impl VoxelCaster<'_> {
         if (0..2).any(|a| idx[a] < 0 || idx[a] >= dims[a]) {
             return Err(Ambiguous);
         }
+        // The grid line of axis `a` ahead of the cell `idx[a]`, and how far along `u` it lies (kept
+        // from cell to cell, and made again for the axis stepped only).
+        let ahead = |a: usize, i: i64| {
+            let line = if u[a] > 0.0 {
+                lo[a] + (i + 1) as f64 * res
+            } else if u[a] < 0.0 {
+                lo[a] + i as f64 * res
+            } else {
+                return (0.0, f64::INFINITY);
+            };
+            (line, (line - o[a]) / u[a])
+        };
+        let (mut line, mut next) = ([0.0f64; 2], [f64::INFINITY; 2]);
+        for a in 0..2 {
+            (line[a], next[a]) = ahead(a, idx[a]);
+        }
         let mut next_cell = || -> std::result::Result<PathCell, Ambiguous> {
-            let mut next = [f64::INFINITY; 2];
-            let mut line = [0.0f64; 2];
-            for a in 0..2 {
-                if u[a] > 0.0 {
-                    line[a] = lo[a] + (idx[a] + 1) as f64 * res;
-                } else if u[a] < 0.0 {
-                    line[a] = lo[a] + idx[a] as f64 * res;
-                } else {
-                    continue;
-                }
-                next[a] = (line[a] - o[a]) / u[a];
-            }
             let a = if next[0] < next[1] { 0 } else { 1 };
             let h_out = next[a];
             if !h_out.is_finite() {
@@ -793,20 +852,20 @@ impl VoxelCaster<'_> {
             let b = 1 - a;
             let along = o[b] + u[b] * h_out;
             let f = (along - lo[b]) * inv_res;
-            let corner = (f - floor_i64(f + 0.5) as f64).abs() * res;
+            let corner = (f - floor_both(f + 0.5).1).abs() * res;
             if corner <= h_out * drift[a] + TIE_M {
                 return Err(Ambiguous);
             }
+            let cell = (idx[1] * dims[0] + idx[0]) as usize;
+            let exit = line[a];
             idx[a] += if u[a] > 0.0 { 1 } else { -1 };
+            (line[a], next[a]) = ahead(a, idx[a]);
             let leaves = idx[a] < 0 || idx[a] >= dims[a];
             let last = leaves || h_out > h_max + 1e-6;
-            let prev = if u[a] > 0.0 { idx[a] - 1 } else { idx[a] + 1 };
-            let mut here = idx;
-            here[a] = prev;
             Ok(PathCell {
-                cell: (here[1] * dims[0] + here[0]) as usize,
+                cell,
                 exit_axis: a,
-                exit: line[a],
+                exit,
                 h_out,
                 last,
             })
@@ -815,8 +874,8 @@ impl VoxelCaster<'_> {
         let z_at = |ray: &ColumnRay, t: f64| o[2] + ray.d[2] * t;
         // The layer of height `z`, or Ambiguous when `z` is within TIE_M of a layer boundary.
         let layer = |z: f64, clamped: bool| -> std::result::Result<usize, Ambiguous> {
-            let l = floor_i64(z * inv_res);
-            let base = l as f64 * res;
+            let (l, l_f) = floor_both(z * inv_res);
+            let base = l_f * res;
             if !clamped && (z - base < TIE_M || base + res - z < TIE_M) {
                 return Err(Ambiguous);
             }
@@ -883,116 +942,110 @@ impl VoxelCaster<'_> {
             }
             // One ray through this cell's layers, voxel by voxel, with observe's rule for hits.
             // Returns whether the ray stops here.
-            let walk = |k: usize,
-                        rays: &mut [ColumnRay],
-                        here: &mut u64,
-                        marks: &mut Vec<(usize, u64)>| {
-                let ray = rays[k];
-                let ends = enders >> k & 1 == 1;
-                let t0 = t_in(&ray);
-                let (t_end, clamped) = t_end(&ray, ends);
-                let l0 = layer(z_at(&ray, t0), false)?;
-                let l1 = layer(z_at(&ray, t_end), clamped)?;
-                let up = ray.d[2] > 0.0;
-                if ray.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
-                    // No occupied voxel on the way through this cell: all its layers, no hit.
-                    *here |= span(l0, l1);
-                    return Ok(ends);
-                }
-                let mut best = ray.best;
-                let mut l = l0;
-                let mut stopped = false;
-                let mut mask = 0u64;
-                loop {
-                    let tv_in = if l == l0 {
-                        t0
-                    } else {
-                        let z = if up {
-                            l as f64 * res
+            let walk =
+                |k: usize, hits: &mut [RayHits], here: &mut u64, marks: &mut Vec<(usize, u64)>| {
+                    let ray = &rays[k];
+                    let ends = enders >> k & 1 == 1;
+                    let t0 = t_in(ray);
+                    let (t_end, clamped) = t_end(ray, ends);
+                    let l0 = layer(z_at(ray, t0), false)?;
+                    let l1 = layer(z_at(ray, t_end), clamped)?;
+                    let up = ray.d[2] > 0.0;
+                    let hit = &mut hits[k];
+                    if hit.best == f64::INFINITY && span(l0, l1) & occ & occ_mask == 0 {
+                        // No occupied voxel on the way through this cell: all its layers, no hit.
+                        *here |= span(l0, l1);
+                        return Ok(ends);
+                    }
+                    let mut best = hit.best;
+                    let mut l = l0;
+                    let mut stopped = false;
+                    let mut mask = 0u64;
+                    loop {
+                        let tv_in = if l == l0 {
+                            t0
                         } else {
-                            (l + 1) as f64 * res
+                            let z = if up {
+                                l as f64 * res
+                            } else {
+                                (l + 1) as f64 * res
+                            };
+                            (z - o[2]) * ray.inv[2]
                         };
-                        (z - o[2]) * ray.inv[2]
-                    };
-                    let tv_out = if l == l1 {
-                        t_end
-                    } else {
-                        let z = if up {
-                            (l + 1) as f64 * res
+                        let tv_out = if l == l1 {
+                            t_end
                         } else {
-                            l as f64 * res
+                            let z = if up {
+                                (l + 1) as f64 * res
+                            } else {
+                                l as f64 * res
+                            };
+                            (z - o[2]) * ray.inv[2]
                         };
-                        (z - o[2]) * ray.inv[2]
-                    };
-                    // `occ` holds the cell's occupied layers: `tris.occupied` without a load.
-                    if occ >> l & 1 == 1 {
-                        best = best.min(self.hit_in(step.cell, l, origin, ray.dir));
+                        // `occ` holds the cell's occupied layers: `tris.occupied` without a load.
+                        if occ >> l & 1 == 1 {
+                            let list = self.tris.list(step.cell, l);
+                            // The ray's nearest hit is the least over every triangle it was tested
+                            // against, in any order: a list tested again changes nothing.
+                            if list != hit.tested {
+                                hit.tested = list;
+                                best = best.min(self.hit_in(list, origin, ray.dir));
+                            }
+                        }
+                        if best <= tv_in {
+                            stopped = true;
+                            break;
+                        }
+                        mask |= 1 << l;
+                        if best <= tv_out {
+                            stopped = true;
+                            break;
+                        }
+                        if l == l1 {
+                            break;
+                        }
+                        l = if up { l + 1 } else { l - 1 };
                     }
-                    if best <= tv_in {
-                        stopped = true;
-                        break;
-                    }
-                    mask |= 1 << l;
-                    if best <= tv_out {
-                        stopped = true;
-                        break;
-                    }
-                    if l == l1 {
-                        break;
-                    }
-                    l = if up { l + 1 } else { l - 1 };
-                }
-                *here |= mask;
-                rays[k].best = best;
-                let done = stopped || ends;
-                if done && best.is_finite() {
-                    if best < self.range.0 as f64 {
-                        // No reading: the map integrates nothing of this ray, not even the cells
-                        // already marked. Rare (a hit within the minimum range): walk ray by ray.
-                        return Err(Ambiguous);
-                    }
-                    let p = Point3::new(o[0], o[1], o[2]) + ray.dir.cast::<f64>() * best;
-                    // `grid.voxel_of(p)`, its floors taken without a libm call (the same values).
-                    let ix = floor_i64((p.x - grid.origin_x) / res);
-                    let iy = floor_i64((p.y - grid.origin_y) / res);
-                    let iz = floor_i64(p.z / res);
-                    if (0..dims[0]).contains(&ix)
-                        && (0..dims[1]).contains(&iy)
-                        && (0..nz as i64).contains(&iz)
-                    {
-                        let c = (iy * dims[0] + ix) as usize;
-                        // Usually this cell's: joined to its mark rather than a mark of its own.
-                        if c == step.cell {
-                            *here |= 1 << iz;
-                        } else {
-                            marks.push((c, 1 << iz));
+                    *here |= mask;
+                    hit.best = best;
+                    let done = stopped || ends;
+                    if done && best.is_finite() {
+                        if best < self.range.0 as f64 {
+                            // No reading: the map integrates nothing of this ray, not even the cells
+                            // already marked. Rare (a hit within the minimum range): walk ray by ray.
+                            return Err(Ambiguous);
+                        }
+                        let p = Point3::new(o[0], o[1], o[2]) + ray.dir.cast::<f64>() * best;
+                        // `grid.voxel_of(p)`, its floors taken without a libm call (the same values).
+                        let ix = floor_i64((p.x - grid.origin_x) / res);
+                        let iy = floor_i64((p.y - grid.origin_y) / res);
+                        let iz = floor_i64(p.z / res);
+                        if (0..dims[0]).contains(&ix)
+                            && (0..dims[1]).contains(&iy)
+                            && (0..nz as i64).contains(&iz)
+                        {
+                            let c = (iy * dims[0] + ix) as usize;
+                            // Usually this cell's: joined to its mark rather than a mark of its own.
+                            if c == step.cell {
+                                *here |= 1 << iz;
+                            } else {
+                                marks.push((c, 1 << iz));
+                            }
                         }
                     }
-                }
-                Ok(done)
-            };
-            let mut stopped = 0u64;
+                    Ok(done)
+                };
             // The layers marked in this cell.
             let mut here = 0u64;
-            let mut m = single;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if walk(k, rays, &mut here, marks)? {
-                    stopped |= 1 << k;
-                }
-            }
-            let mut m = runs;
-            while m != 0 {
-                let a = m.trailing_zeros() as usize;
-                let len = (!(m >> a)).trailing_zeros() as usize;
-                let b = a + len - 1;
-                let run = span(a, b);
-                m &= !run;
-                // The run's lowest and highest points: its top and bottom rays, and rays ending here.
+            // The rays walked one by one here: the single rays, and the runs that meet an
+            // occupied voxel (gathered first, so that the walk has one call site and is inlined).
+            let mut walked = single;
+            // The layers of a part `a..=b` of a run: from its lowest to its highest point, which are
+            // those of its top and bottom rays and of its rays that end here.
+            let cover = |a: usize, b: usize| -> std::result::Result<u64, Ambiguous> {
                 let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
                 let (mut c_min, mut c_max) = (false, false);
-                let mut ext = (enders & run) | 1 << a | 1 << b;
+                let mut ext = (enders & span(a, b)) | 1 << a | 1 << b;
                 while ext != 0 {
                     let k = ext.trailing_zeros() as usize;
                     ext &= ext - 1;
@@ -1009,22 +1062,53 @@ impl VoxelCaster<'_> {
                         }
                     }
                 }
-                let (la, lb) = (layer(z_min, c_min)?, layer(z_max, c_max)?);
-                let cover = span(la, lb);
-                if cover & occ & occ_mask == 0 {
-                    here |= cover;
-                } else {
-                    let mut k_m = run;
-                    while k_m != 0 {
-                        let k = k_m.trailing_zeros() as usize;
-                        k_m &= k_m - 1;
-                        if walk(k, rays, &mut here, marks)? {
-                            stopped |= 1 << k;
-                        } else if rays[k].best.is_finite() {
-                            runs &= !(1 << k);
-                            single |= 1 << k;
-                        }
+                Ok(span(layer(z_min, c_min)?, layer(z_max, c_max)?))
+            };
+            let blocked = occ & occ_mask;
+            // Parts of runs that meet an occupied voxel, still to be split.
+            let mut parts = [(0usize, 0usize); 16];
+            let mut m = runs;
+            while m != 0 {
+                let a = m.trailing_zeros() as usize;
+                let len = (!(m >> a)).trailing_zeros() as usize;
+                let b = a + len - 1;
+                m &= !span(a, b);
+                let mut todo = 0;
+                let mut part = (a, b);
+                loop {
+                    let (a, b) = part;
+                    let layers = cover(a, b)?;
+                    if layers & blocked == 0 {
+                        here |= layers;
+                    } else if b - a < MIN_SPLIT || layers & self.band_mask & !blocked == 0 {
+                        // Too few rays to split, or every ray meets an occupied voxel (each passes
+                        // a band layer of the part's, all occupied): walked one by one.
+                        walked |= span(a, b);
+                    } else {
+                        // The halves that meet no occupied voxel are runs of their own.
+                        let mid = (a + b) / 2;
+                        parts[todo] = (mid + 1, b);
+                        part = (a, mid);
+                        todo += 1;
+                        continue;
                     }
+                    if todo == 0 {
+                        break;
+                    }
+                    todo -= 1;
+                    part = parts[todo];
+                }
+            }
+            let mut stopped = 0u64;
+            while walked != 0 {
+                let k = walked.trailing_zeros() as usize;
+                walked &= walked - 1;
+                if walk(k, hits, &mut here, marks)? {
+                    stopped |= 1 << k;
+                } else if hits[k].best.is_finite() {
+                    // A hit beyond this cell: walked one by one from now on.
+                    runs &= !(1 << k);
+                    single |= 1 << k;
                 }
             }
             if here != 0 {
