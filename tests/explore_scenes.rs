@@ -160,8 +160,8 @@ fn nbv_finishes_every_shipped_scene() {
 /// lowest, sees 0.74 on plan_165cad143c: its spawn room is closed by a door too narrow to pass, and
 /// what it leaves is the top of the height band over the room's far side, which no frontier shows
 /// (it saw 0.85 while a frontier it has since learnt to resolve from a viewpoint drew it across the
-/// room). A run may end `stuck` here: real plans can hold
-/// frontiers a planner cannot reach or see (THP once ended `stuck` on plan_115c3a7a64 at 0.93).
+/// room). A run may end `stuck` here: real plans can hold frontiers a planner cannot reach or see
+/// (THP once ended `stuck` on plan_115c3a7a64 at 0.93).
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
 fn every_planner_finishes_a_sample_of_real_plans() {
