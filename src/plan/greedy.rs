@@ -7,7 +7,7 @@
 //! the camera's blind zone and are seen once the robot moves on. When no reachable frontier is left,
 //! the robot still looks once at each frontier seen through a gap too narrow to pass, from a reachable
 //! cell in line of sight (see [`super::frontier_visit::distant_view`]), and then, with
-//! `volume_views.enabled` (off by default; not part of Yamauchi's method), drives to each place from
+//! `volume_views.enabled` (on by default; not part of Yamauchi's method), drives to each place from
 //! which the camera would still see unknown volume that no frontier shows
 //! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
 

@@ -40,6 +40,10 @@ enum Phase {
     /// then report `Blocked`.
     Escaping {
         steps_left: u32,
+        /// The way the robot came (its heading when the back-off began, reversed): of equally good
+        /// headings the nearest to it. Fixed for the back-off, or a robot that turned to go one
+        /// way along a gap would find the other way "back" and turn again.
+        back: f64,
     },
 }
 
@@ -161,15 +165,18 @@ impl MotionExecutor {
                 }
             }
             Phase::Following { .. } => self.follow(pose, map),
-            Phase::Escaping { steps_left } => {
+            Phase::Escaping { steps_left, back } => {
                 let here = pose.position();
                 let clearance = obstacle_clearance(map, here, self.slow_clearance);
                 *steps_left = steps_left.saturating_sub(1);
                 let done = clearance >= self.free_clearance || *steps_left == 0;
+                // With the guard's clearance to spare, a heading that keeps it will do: along a gap
+                // the clearance stays the same but for the sub-millimetre steps between the
+                // obstacle boxes of neighbouring cells, and requiring it never to shrink left no
+                // heading at all.
+                let least = clearance.min(self.guard_clearance);
                 let away = (!done)
-                    .then(|| {
-                        escape_heading(map, here, clearance, self.slow_clearance, pose.yaw + PI)
-                    })
+                    .then(|| escape_heading(map, here, least, self.slow_clearance, *back))
                     .flatten();
                 let Some(heading) = away else {
                     self.phase = Phase::Idle;
@@ -182,7 +189,12 @@ impl MotionExecutor {
                 }
                 let v = ESCAPE_SPEED_FRACTION * self.max_speed;
                 let next = super::robot::integrate(pose, v, w, self.dt);
-                if obstacle_clearance(map, next.position(), self.slow_clearance) < clearance {
+                // The same rule as tight tracking: a move that keeps the guard clearance is safe.
+                // Requiring the clearance never to shrink at all froze a robot standing between
+                // two hazards with clearance to spare: along the gap it stays equal, and each step
+                // of the turn's arc lost a fraction of a millimetre (`plan_6ede154d56`, THP).
+                let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
+                if next_clearance < clearance && next_clearance < self.guard_clearance {
                     return (Command { v: 0.0, w }, MotionStatus::Busy);
                 }
                 (Command { v, w }, MotionStatus::Busy)
@@ -200,26 +212,20 @@ const ESCAPE_PROBE_M: f64 = 0.05;
 const ESCAPE_TIE_M: f64 = 1e-3;
 
 /// The heading in which the clearance grows most over a short step from `here`, among those in
-/// which it does not shrink; of equally good ones, the nearest to `back` (the way the robot came).
-/// `None` if every heading brings the disc closer to a hazard.
+/// which it stays at least `least`; of equally good ones, the nearest to `back` (the way the robot
+/// came). `None` if every heading brings the disc closer to a hazard than that.
 ///
 /// Straight away from the nearest hazard is not enough: between two hazards (a gap the guard finds a
 /// little too narrow) it leads toward the other one, and the robot stayed wedged there until the
 /// run ended `stuck`.
-fn escape_heading(
-    map: &Map,
-    here: Point2<f64>,
-    clearance: f64,
-    max_m: f64,
-    back: f64,
-) -> Option<f64> {
+fn escape_heading(map: &Map, here: Point2<f64>, least: f64, max_m: f64, back: f64) -> Option<f64> {
     let probes: Vec<(f64, f64)> = (0..ESCAPE_HEADINGS)
         .map(|k| {
             let heading = wrap_angle(k as f64 * TAU / ESCAPE_HEADINGS as f64);
             let probe = here + ESCAPE_PROBE_M * Vector2::new(heading.cos(), heading.sin());
             (obstacle_clearance(map, probe, max_m), heading)
         })
-        .filter(|&(c, _)| c >= clearance)
+        .filter(|&(c, _)| c >= least)
         .collect();
     let best = probes.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     probes
@@ -316,6 +322,7 @@ impl MotionExecutor {
     fn back_off(&mut self, pose: Pose2, map: &Map) -> (Command, MotionStatus) {
         self.phase = Phase::Escaping {
             steps_left: ESCAPE_STEPS,
+            back: pose.yaw + PI,
         };
         self.step(pose, map)
     }
@@ -513,5 +520,59 @@ mod tests {
         assert!(obstacle_clearance(&map, near_end + step, max_m) > c + ESCAPE_TIE_M);
         // Where every heading loses clearance there is none.
         assert_eq!(escape_heading(&map, here, f64::INFINITY, max_m, back), None);
+    }
+
+    /// A robot standing across a gap between two boxes 0.58 m apart, with more than the guard's
+    /// clearance but less than the inflation radius, and sent toward the nearer box: it backs off
+    /// along the gap and out of it rather than freezing where it stands.
+    #[test]
+    fn backing_off_with_clearance_to_spare_leaves_the_gap() {
+        let cfg = Config::default();
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, 0.21, 1.0]);
+        push_box(&mut mesh, [0.8, 0.79, 0.0], [1.2, 1.0, 1.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let grid = GridSpec::covering(
+            Point2::new(-1.0, -1.5),
+            Point2::new(3.0, 2.5),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let looks = [(-0.5, 0.5), (2.5, 0.5), (1.0, -1.2), (1.0, 2.2)]
+            .into_iter()
+            .flat_map(|(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
+        let map = seen_from(grid, &cfg, &bvh, looks);
+        let params = MotionParams::from(&cfg);
+        let mut exec = MotionExecutor::new(&params);
+        let max_m = cfg.motion.slow_clearance_m.get();
+        let mut pose = Pose2::new(1.0, 0.495, -PI / 2.0);
+        let start = obstacle_clearance(&map, pose.position(), max_m);
+        assert!(
+            start > exec.guard_clearance && start < exec.free_clearance,
+            "{start}"
+        );
+        exec.start(&Action::Follow {
+            path: vec![pose.position(), Point2::new(1.0, 0.1)],
+            look_on_arrival: false,
+        });
+        let top = cfg.robot.height_m.min(cfg.map.band_max_m);
+        let mut status = MotionStatus::Busy;
+        for _ in 0..200 {
+            let (cmd, s) = exec.step(pose, &map);
+            pose = super::super::robot::integrate(pose, cmd.v, cmd.w, cfg.sim.dt_s);
+            let (x, y, r) = (pose.x, pose.y, cfg.robot.radius_m);
+            let hit = bvh.cylinder_intersects(x, y, r, cfg.map.band_min_m, top);
+            assert!(!hit, "collision at {pose:?}");
+            status = s;
+            if s != MotionStatus::Busy {
+                break;
+            }
+        }
+        assert_eq!(status, MotionStatus::Blocked);
+        let end = obstacle_clearance(&map, pose.position(), max_m);
+        assert!(
+            end >= exec.free_clearance,
+            "still in the gap at {pose:?}: {end}"
+        );
     }
 }
