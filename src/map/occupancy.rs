@@ -203,6 +203,24 @@ impl Occupancy {
         self.known
     }
 
+    /// Number of frames integrated so far.
+    pub fn frames(&self) -> u32 {
+        self.frame
+    }
+
+    /// Per column (flat 2D index), whether a voxel in it changed its log-odds (or became known) in
+    /// a frame after `frame`: a voxel's stamp is the last frame that changed it.
+    pub fn columns_changed_after(&self, frame: u32) -> Vec<bool> {
+        let layer_len = self.grid.cells();
+        let mut changed = vec![false; layer_len];
+        for layer in self.voxels.chunks_exact(layer_len) {
+            for (c, voxel) in changed.iter_mut().zip(layer) {
+                *c |= voxel.stamp > frame;
+            }
+        }
+        changed
+    }
+
     /// Integrates one frame. Every voxel gets at most one update: voxels that end a valid ray get a hit,
     /// then voxels that rays pass through get a miss unless they already got a hit this frame. So the
     /// result does not depend on ray order. Rays with an invalid (NaN) range are skipped; rays with no

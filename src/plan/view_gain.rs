@@ -217,6 +217,14 @@ pub struct VolumeViews {
     given_up: Vec<bool>,
     /// Views taken (`planner_stats.volume_views`).
     taken: super::Count,
+    /// Per floor cell, its gain as of map frame `gains_frame` (NaN: never evaluated). A gain reads
+    /// only the voxels within the camera's range, so it is reused until one of them changes: each
+    /// call scores the whole lattice, and re-evaluating all of it took seconds on a large scene.
+    gains: Vec<f64>,
+    gains_frame: u32,
+    /// Gains re-evaluated and reused (not reported; for tests).
+    evaluated: usize,
+    reused: usize,
 }
 
 /// What [`VolumeViews`] reads of the config: its own section, and the gain model's camera, height
@@ -257,6 +265,10 @@ impl VolumeViews {
             spacing_m: p.volume_views.spacing_m.get(),
             given_up: Vec::new(),
             taken: super::Count::default(),
+            gains: Vec::new(),
+            gains_frame: 0,
+            evaluated: 0,
+            reused: 0,
         })
     }
 
@@ -275,21 +287,13 @@ impl VolumeViews {
             .filter(|&i| !self.given_up[i] && map.is_traversable(i))
             .filter_map(|i| df.cost_to(i).map(|cost| (cost, i)))
             .collect();
-        // Every candidate's gain, in parallel; the choice below reads them in cell order, so it does
-        // not depend on the thread count.
-        let gains: Vec<f64> = candidates
-            .par_iter()
-            .map(|&(_, i)| {
-                self.model
-                    .evaluate(map, grid.center(grid.cell(i)))
-                    .volume_m3
-            })
-            .collect();
+        self.refresh_gains(map, &candidates);
+        let gains = &self.gains;
         let best = candidates
             .iter()
-            .zip(&gains)
-            .filter(|(_, &g)| g >= self.cutoff_m3)
-            .map(|(&(cost, cell), &g)| (g / (cost as f64 + COST_OFFSET_M), cell, g))
+            .map(|&(cost, cell)| ((cost, cell), gains[cell]))
+            .filter(|(_, g)| *g >= self.cutoff_m3)
+            .map(|((cost, cell), g)| (g / (cost as f64 + COST_OFFSET_M), cell, g))
             .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))?;
         self.take(&grid, best.1);
         self.taken.add(1.0);
@@ -297,6 +301,40 @@ impl VolumeViews {
             cell: best.1,
             gain_m3: best.2,
         })
+    }
+
+    /// Brings the gains of `candidates` up to date with `map`: evaluates (in parallel) those never
+    /// evaluated and those within the camera's range of a column that changed since the last call,
+    /// and keeps the rest. The same gains as evaluating every candidate, whatever the thread count.
+    fn refresh_gains(&mut self, map: &Map, candidates: &[(f32, usize)]) {
+        let grid = *map.grid();
+        let occ = map.occupancy();
+        if self.gains.len() != grid.cells() || occ.frames() < self.gains_frame {
+            // Another map (or a first call): nothing to keep.
+            self.gains = vec![f64::NAN; grid.cells()];
+        }
+        let changed = ChangedNear::new(&grid, &occ.columns_changed_after(self.gains_frame));
+        // A ray reaches `max_range_m` horizontally at most; one more cell for the voxel it ends in.
+        let reach = (self.model.max_range_m / grid.res).ceil() as i64 + 1;
+        let stale: Vec<usize> = candidates
+            .iter()
+            .map(|&(_, i)| i)
+            .filter(|&i| self.gains[i].is_nan() || changed.any_within(&grid, i, reach))
+            .collect();
+        let fresh: Vec<f64> = stale
+            .par_iter()
+            .map(|&i| {
+                self.model
+                    .evaluate(map, grid.center(grid.cell(i)))
+                    .volume_m3
+            })
+            .collect();
+        for (&i, g) in stale.iter().zip(fresh) {
+            self.gains[i] = g;
+        }
+        self.evaluated += stale.len();
+        self.reused += candidates.len() - stale.len();
+        self.gains_frame = occ.frames();
     }
 
     /// The `volume_views` statistic of `views` (absent when views are off or none was taken).
@@ -318,6 +356,40 @@ impl VolumeViews {
                 }
             }
         }
+    }
+}
+
+/// Summed-area table of changed columns: whether any lies in a square around a cell, in O(1).
+struct ChangedNear {
+    /// `(nx + 1) × (ny + 1)` prefix counts.
+    sums: Vec<u32>,
+}
+
+impl ChangedNear {
+    fn new(grid: &GridSpec, changed: &[bool]) -> Self {
+        let (nx, ny) = (grid.nx, grid.ny);
+        let mut sums = vec![0u32; (nx + 1) * (ny + 1)];
+        for y in 0..ny {
+            let mut row = 0u32;
+            for x in 0..nx {
+                row += u32::from(changed[y * nx + x]);
+                sums[(y + 1) * (nx + 1) + x + 1] = sums[y * (nx + 1) + x + 1] + row;
+            }
+        }
+        ChangedNear { sums }
+    }
+
+    /// Whether a changed column lies within `reach` cells (in x and y) of cell `i`.
+    fn any_within(&self, grid: &GridSpec, i: usize, reach: i64) -> bool {
+        let c = grid.cell(i);
+        let (nx, ny) = (grid.nx as i64, grid.ny as i64);
+        let x0 = (c.x as i64 - reach).clamp(0, nx) as usize;
+        let x1 = (c.x as i64 + reach + 1).clamp(0, nx) as usize;
+        let y0 = (c.y as i64 - reach).clamp(0, ny) as usize;
+        let y1 = (c.y as i64 + reach + 1).clamp(0, ny) as usize;
+        let w = grid.nx + 1;
+        let s = |x: usize, y: usize| i64::from(self.sums[y * w + x]);
+        s(x1, y1) - s(x0, y1) - s(x1, y0) + s(x0, y0) > 0
     }
 }
 
@@ -515,6 +587,57 @@ mod tests {
             }
         }
         assert_eq!(one, run(2));
+    }
+
+    /// Gains kept from an earlier call are the gains a fresh evaluation gives: in a 14 m long room,
+    /// after new frames at the east end, a second view comes out the same as from views that
+    /// evaluate every candidate again, every candidate's gain is the same to the bit, and those out
+    /// of the camera's range of every changed column were not evaluated again.
+    #[test]
+    fn gains_kept_between_calls_equal_fresh_ones() {
+        let cfg = Config::default();
+        let grid = floor_grid(&cfg, 8.0);
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
+        push_box(&mut mesh, [-7.1, -2.1, 0.0], [7.1, -2.0, 2.0]);
+        push_box(&mut mesh, [-7.1, 2.0, 0.0], [7.1, 2.1, 2.0]);
+        push_box(&mut mesh, [-7.1, -2.1, 0.0], [-7.0, 2.1, 2.0]);
+        push_box(&mut mesh, [7.0, -2.1, 0.0], [7.1, 2.1, 2.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let around = |x: f64| (0..32).map(move |i| Pose2::new(x, 0.0, i as f64 * TAU / 32.0));
+        let mut map = seen_from(grid, &cfg, &bvh, around(-5.0).chain(around(0.0)));
+        let start = grid.index(grid.cell_of(Point2::new(-5.0, 1.0)).unwrap());
+        assert!(map.is_traversable(start));
+        let df = Search::new(&grid).distance_field(
+            &grid,
+            |i| map.is_traversable(i).then_some(0.1),
+            start,
+            f32::INFINITY,
+        );
+        let mut kept = views_with_cutoff(0.01).unwrap();
+        assert!(kept.next(&map, &df).is_some());
+        let first = kept.evaluated;
+        // New frames at the east end change the map there only.
+        let cam = crate::sensor::DepthCamera::new(&cfg.camera);
+        for i in 0..8 {
+            map.integrate(&cam.capture(&bvh, Pose2::new(5.0, 0.0, i as f64 * TAU / 8.0)));
+        }
+        let mut fresh = kept.clone();
+        fresh.gains.clear();
+        let (a, b) = (kept.next(&map, &df), fresh.next(&map, &df));
+        assert!(a.is_some());
+        assert_eq!(a, b);
+        for i in (0..grid.cells()).filter(|&i| !fresh.gains[i].is_nan()) {
+            assert_eq!(
+                kept.gains[i].to_bits(),
+                fresh.gains[i].to_bits(),
+                "cell {i}"
+            );
+        }
+        assert!(
+            kept.reused > 0 && kept.evaluated - first < first,
+            "nothing was kept"
+        );
     }
 
     /// A cutoff no view reaches ends the volume views at once; switched off, there are none (on by
