@@ -377,38 +377,39 @@ impl Occupancy {
         // Task k takes every tasks-th ray (pixel column) from ray (column) k. Interleaved rather than
         // in blocks, because rays are in image order and the lower rows end on the floor soon while
         // the upper ones run far: blocks of rows would leave one task most of the work.
-        let walked: usize = self
-            .passed
-            .par_iter_mut()
-            .enumerate()
-            .map(|(k, (bits, scratch))| {
-                let Some(sweep) = &sweep else {
-                    for i in (k..n).step_by(tasks) {
+        let task = |(k, (bits, scratch)): (usize, &mut (Vec<u64>, Scratch))| {
+            let Some(sweep) = &sweep else {
+                for i in (k..n).step_by(tasks) {
+                    walk_ray(bits, i);
+                }
+                return if k == 0 { frame.width } else { 0 };
+            };
+            let mut walked = 0;
+            for col in (k..frame.width).step_by(tasks) {
+                if sweep.column(col, scratch).is_ok() {
+                    // (The sweep applies to grids of at most 64 layers: one word per cell.)
+                    for &(cell, mask) in &scratch.marks {
+                        bits[cell] |= mask;
+                    }
+                    for &i in &scratch.singles {
                         walk_ray(bits, i);
                     }
-                    return if k == 0 { frame.width } else { 0 };
-                };
-                let mut walked = 0;
-                for col in (k..frame.width).step_by(tasks) {
-                    if sweep.column(col, scratch).is_ok() {
-                        // (The sweep applies to grids of at most 64 layers: one word per cell.)
-                        for &(cell, mask) in &scratch.marks {
-                            bits[cell] |= mask;
-                        }
-                        for &i in &scratch.singles {
-                            walk_ray(bits, i);
-                        }
-                    } else {
-                        walked += 1;
-                        for row in 0..frame.height {
-                            scratch.hits[row * frame.width + col] = NONE;
-                            walk_ray(bits, row * frame.width + col);
-                        }
+                } else {
+                    walked += 1;
+                    for row in 0..frame.height {
+                        scratch.hits[row * frame.width + col] = NONE;
+                        walk_ray(bits, row * frame.width + col);
                     }
                 }
-                walked
-            })
-            .sum();
+            }
+            walked
+        };
+        // One task runs in the calling thread: handing it to the pool and waiting costs a thread
+        // wake-up per frame.
+        let walked: usize = match &mut self.passed[..] {
+            [one] => task((0, one)),
+            all => all.par_iter_mut().enumerate().map(task).sum(),
+        };
         // Merge into the first task's masks, clearing the others' window.
         let (first, rest) = self.passed.split_first_mut().unwrap();
         let first = &mut first.0;
