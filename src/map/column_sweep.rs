@@ -267,7 +267,7 @@ impl<'a> Sweep<'a> {
                 }
             }
             // (Also NaN.)
-            if !(0.0 < t1) {
+            if t1 <= 0.0 || t1.is_nan() {
                 continue; // the walk visits nothing
             }
             if !inside {
@@ -399,7 +399,7 @@ impl<'a> Sweep<'a> {
             for k in 1..m {
                 let dw = (rays[k - 1].w[a] - rays[k].w[a]) * sgn[a] as f64;
                 // (Also NaN.)
-                if !(dw > 0.0) {
+                if dw <= 0.0 || dw.is_nan() {
                     return Err(Ambiguous);
                 }
                 if dw < min_dw {

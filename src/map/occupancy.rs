@@ -246,18 +246,19 @@ impl Occupancy {
         let (mut col, mut task) = (0, 0);
         for (i, (dir, &range)) in frame.dirs.iter().zip(&frame.range).enumerate() {
             if range.is_finite() {
-                let end = origin + dir.cast::<f64>() * range as f64;
+                let end = || origin + dir.cast::<f64>() * range as f64;
                 let v = match swept {
                     true => self.passed[task].1.hits[i],
                     false => NONE,
                 };
                 let v = match v {
-                    NONE => voxel_at_fast(&grid, inv_res, end),
+                    NONE => voxel_at_fast(&grid, inv_res, end()),
                     v => Some(v as usize),
                 };
                 if let Some(v) = v {
                     up.apply(v, up.rule.hit);
                     if obstacle_voxels.contains(&v) {
+                        let end = end();
                         up.record_hit(v, end.x as f32, end.y as f32);
                     }
                 }
