@@ -643,8 +643,9 @@ pub(super) fn floor_i64(x: f64) -> i64 {
 }
 
 /// The part `[t0, t1)` of the segment from `origin` along `dir` for length `t_end` that lies in the
-/// grid's box (slab test), or `None` if it misses the box. The voxel walk and the column sweep
-/// (`super::column_sweep`) both clip with it, so that they end every ray at the same distance.
+/// grid's box (slab test), or `None` if it misses the box. The voxel walk clips with it; the column
+/// sweep (`super::column_sweep`) takes the same quotients along the axes that can cut a ray, so
+/// that both end every ray at the same distance.
 #[inline(always)]
 pub(super) fn clip_to_grid(
     grid: &GridSpec,
