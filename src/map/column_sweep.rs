@@ -39,7 +39,7 @@
 //! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
-use super::occupancy::{clip_to_grid_inv, floor_i64};
+use super::occupancy::floor_i64;
 use crate::grid::GridSpec;
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
@@ -51,8 +51,8 @@ pub(super) const TIE_M: f64 = 1e-9;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Ambiguous;
 
-/// No ray (end of a linked list).
-const NONE: u32 = u32::MAX;
+/// No ray (end of a linked list); no voxel.
+pub(super) const NONE: u32 = u32::MAX;
 
 /// The frame-wide part of the sweep.
 pub(super) struct Sweep<'a> {
@@ -63,7 +63,11 @@ pub(super) struct Sweep<'a> {
     inv_res: f64,
     /// Twice TIE_M, in cells.
     tie: f64,
+    /// The grid's box, per axis, as `clip_to_grid_inv` computes its faces; and shrunk by 1e-6 m.
+    faces: [(f64, f64); 3],
+    inner: [(f64, f64); 3],
     dims: [i64; 2],
+    cells: u32,
     /// The origin's floor cell and layer.
     cell: [i64; 2],
     layer: usize,
@@ -117,6 +121,20 @@ pub(super) struct Scratch {
     /// one.
     pub marks: Vec<(usize, u64)>,
     pub singles: Vec<usize>,
+    /// Per ray of the frame (those of the swept columns written), the voxel where it ends, or
+    /// [`NONE`] where the sweep did not find it: the hit pass then need not find it again.
+    pub hits: Vec<u32>,
+}
+
+/// The smaller of two numbers that are not NaN, in a compare and a select (`f64::min` also
+/// handles NaN).
+#[inline(always)]
+fn min_f64(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
+    }
 }
 
 /// Layers `a..=b` (either order) as a mask.
@@ -150,6 +168,12 @@ impl<'a> Sweep<'a> {
         let ix = inside(origin.x, grid.origin_x, grid.nx)?;
         let iy = inside(origin.y, grid.origin_y, grid.ny)?;
         let iz = inside(origin.z, 0.0, grid.nz)?;
+        let faces = [
+            (grid.origin_x, grid.nx),
+            (grid.origin_y, grid.ny),
+            (0.0, grid.nz),
+        ]
+        .map(|(lo, n)| (lo, lo + n as f64 * res));
         Some(Sweep {
             grid,
             frame,
@@ -157,7 +181,11 @@ impl<'a> Sweep<'a> {
             lo: [grid.origin_x, grid.origin_y],
             inv_res: 1.0 / res,
             tie: 2.0 * TIE_M / res,
+            faces,
+            inner: faces.map(|(lo, hi)| (lo + 1e-6, hi - 1e-6)),
             dims: [grid.nx as i64, grid.ny as i64],
+            // (Voxel indices are u32 throughout: `OccupancyUpdate::newly_known`.)
+            cells: grid.cells() as u32,
             cell: [ix, iy],
             layer: iz as usize,
         })
@@ -174,6 +202,10 @@ impl<'a> Sweep<'a> {
         let u = (x - lo) * self.inv_res;
         let l = floor_i64(u);
         let frac = u - l as f64;
+        // The common case first: clear of both lines, inside (false for NaN too).
+        if frac >= self.tie && frac <= 1.0 - self.tie && (0..len).contains(&l) {
+            return Ok(l);
+        }
         if (frac < self.tie && l >= 1 && l < len)
             || (frac > 1.0 - self.tie && l >= 0 && l + 1 < len)
         {
@@ -196,7 +228,6 @@ impl<'a> Sweep<'a> {
         s.singles.clear();
         let (grid, f, o) = (self.grid, self.frame, self.o);
         let res = grid.res;
-        let origin = Point3::new(o[0], o[1], o[2]);
         // The rays, with where they end. A ray that ends within TIE_M of a cell line or a layer
         // boundary, as rays that hit a wall or a table top on a voxel boundary do, is walked on its
         // own instead. Per axis: the common sign of the rays' directions (0: none crosses its lines)
@@ -207,18 +238,46 @@ impl<'a> Sweep<'a> {
         let mut steps = 0usize;
         for row in 0..f.height {
             let i = row * f.width + col;
+            s.hits[i] = NONE;
             let Some(t_end) = f.free_length(i) else {
                 continue;
             };
             let dir = f.dirs[i].cast::<f64>();
             let d = [dir.x, dir.y, dir.z];
-            let inv = d.map(|x| 1.0 / x);
-            let Some((t0, t1)) = clip_to_grid_inv(grid, origin, dir, inv, t_end as f64) else {
+            let (t_end, mut t1) = (t_end as f64, t_end as f64);
+            let mut end = [
+                o[0] + d[0] * t_end,
+                o[1] + d[1] * t_end,
+                o[2] + d[2] * t_end,
+            ];
+            // The clip (`clip_to_grid_inv`), with the origin inside the grid: it starts the ray at
+            // 0, and only an axis along which the end is not well inside the box can cut it (the
+            // quotients are off by ulps, the margin is 1e-6 m), so only such axes take a division.
+            // The same minimum of the same quotients, so the same end.
+            let mut inside = true;
+            for a in 0..3 {
+                if !(end[a] > self.inner[a].0 && end[a] < self.inner[a].1) {
+                    inside = false;
+                    if d[a] != 0.0 {
+                        let inv = 1.0 / d[a];
+                        let (lo, hi) = self.faces[a];
+                        let (ta, tb) = ((lo - o[a]) * inv, (hi - o[a]) * inv);
+                        t1 = t1.min(ta.max(tb));
+                    }
+                }
+            }
+            // (Also NaN.)
+            if t1 <= 0.0 || t1.is_nan() {
                 continue; // the walk visits nothing
-            };
-            if t0 != 0.0 || (d[0] == 0.0 && d[1] == 0.0) {
+            }
+            if !inside {
+                end = [o[0] + d[0] * t1, o[1] + d[1] * t1, o[2] + d[2] * t1];
+            }
+            if d[0] == 0.0 && d[1] == 0.0 {
                 return Err(Ambiguous);
             }
+            // (Only the axes the rays cross are read: there the direction is not zero.)
+            let inv = [1.0 / d[0], 1.0 / d[1]];
             for a in 0..2 {
                 let sign = (d[a] > 0.0) as i64 - (d[a] < 0.0) as i64;
                 if sgn[a] != sign {
@@ -230,10 +289,15 @@ impl<'a> Sweep<'a> {
                 if sign != 0 {
                     // d_b / d_a
                     let sl = d[1 - a] * inv[a];
-                    slope[a] = (slope[a].0.min(sl), slope[a].1.max(sl));
+                    // (Finite: d_a is an f32's value, not zero.)
+                    if sl < slope[a].0 {
+                        slope[a].0 = sl;
+                    }
+                    if sl > slope[a].1 {
+                        slope[a].1 = sl;
+                    }
                 }
             }
-            let end = [o[0] + d[0] * t1, o[1] + d[1] * t1, o[2] + d[2] * t1];
             let (Ok(ix), Ok(iy), Ok(iz)) = (
                 self.cell_along(end[0], self.lo[0], grid.nx),
                 self.cell_along(end[1], self.lo[1], grid.ny),
@@ -242,6 +306,18 @@ impl<'a> Sweep<'a> {
                 s.singles.push(i);
                 continue;
             };
+            let end_cell = (iy * self.dims[0] + ix) as u32;
+            // Where the ray hit, the voxel of its end: the clip kept the whole ray, and the end is
+            // clear of the voxel's faces by more than the rounding of `voxel_of`'s divisions, or
+            // (a floor hit) in the bottom layer, not below it.
+            let kept = inside
+                || (t1 == t_end
+                    && (0..2).all(|a| end[a] > self.inner[a].0 && end[a] < self.inner[a].1)
+                    && end[2] >= 0.0
+                    && end[2] < self.inner[2].1);
+            if kept && f.range[i].is_finite() {
+                s.hits[i] = iz as u32 * self.cells + end_cell;
+            }
             // One line crossed per step of the path.
             let j = (ix - self.cell[0]).unsigned_abs() + (iy - self.cell[1]).unsigned_abs();
             steps = steps.max(j as usize + 1);
@@ -250,7 +326,7 @@ impl<'a> Sweep<'a> {
                 reach: [(t1 * d[0]).abs(), (t1 * d[1]).abs()],
                 end: j as u32,
                 end_layer: iz as u32,
-                end_cell: (iy * self.dims[0] + ix) as u32,
+                end_cell,
             });
         }
         let rays = &s.rays;
@@ -294,7 +370,10 @@ impl<'a> Sweep<'a> {
                     return Err(Ambiguous);
                 }
             };
-            first[a] = first[a].min(dist[a].abs());
+            // (Finite.)
+            if dist[a].abs() < first[a] {
+                first[a] = dist[a].abs();
+            }
             s.path.push(Step {
                 cell: (idx[1] * self.dims[0] + idx[0]) as usize,
                 axis: a,
@@ -320,10 +399,12 @@ impl<'a> Sweep<'a> {
             for k in 1..m {
                 let dw = (rays[k - 1].w[a] - rays[k].w[a]) * sgn[a] as f64;
                 // (Also NaN.)
-                if dw.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                if dw <= 0.0 || dw.is_nan() {
                     return Err(Ambiguous);
                 }
-                min_dw = min_dw.min(dw);
+                if dw < min_dw {
+                    min_dw = dw;
+                }
             }
             if m > 1 && min_dw * first[a] <= 4.0 * TIE_M {
                 return Err(Ambiguous);
@@ -353,7 +434,7 @@ impl<'a> Sweep<'a> {
             let (ri, rj) = (&rays[i as usize], &rays[j as usize]);
             (0..2).all(|a| {
                 sgn[a] == 0
-                    || (ri.w[a] - rj.w[a]).abs() * ri.reach[a].min(rj.reach[a]) < res - TIE_M
+                    || (ri.w[a] - rj.w[a]).abs() * min_f64(ri.reach[a], rj.reach[a]) < res - TIE_M
             })
         };
         s.prev.clear();
@@ -385,6 +466,7 @@ impl<'a> Sweep<'a> {
             let mut e = 0;
             let mut here = 0u64;
             s.next_runs.clear();
+            let (axis, dist) = (step.axis, step.line - o[step.axis]);
             for run in &s.runs {
                 let (mut lo, mut hi) = (run.lo, run.hi);
                 let (mut top, mut bottom) = (run.top, run.bottom);
@@ -414,7 +496,6 @@ impl<'a> Sweep<'a> {
                 }
                 if !empty {
                     // What goes on: the run, split where rows ended between rays too far apart.
-                    let (axis, dist) = (step.axis, step.line - o[step.axis]);
                     let z_out = |k: u32| o[2] + rays[k as usize].w[axis] * dist;
                     let mut t = top;
                     let mut g = 0;

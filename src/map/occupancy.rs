@@ -1,6 +1,6 @@
 //! Dense 3D occupancy voxels with OctoMap-style clamped log-odds, updated one depth frame at a time.
 
-use super::column_sweep::{Scratch, Sweep};
+use super::column_sweep::{Scratch, Sweep, NONE};
 use crate::config::MapConfig;
 use crate::grid::{Cell, GridSpec};
 use crate::sensor::DepthFrame;
@@ -142,9 +142,9 @@ pub struct Occupancy {
     obstacle_box: Vec<ObstacleBox>,
     frame: u32,
     known: usize,
-    /// Per integration task, a bit per voxel: the voxels its rays passed through this frame. All
-    /// zero between frames (only the frame's window of them is ever set, and cleared after use).
-    /// And the task's buffers for sweeping columns.
+    /// Per integration task, per floor cell, a bit per layer (in words of 64): the voxels its rays
+    /// passed through this frame. All zero between frames (only the frame's window of them is ever
+    /// set, and cleared after use). And the task's buffers for sweeping columns.
     passed: Vec<(Vec<u64>, Scratch)>,
 }
 
@@ -239,6 +239,9 @@ impl Occupancy {
         // A frame number of 0 means "never"; wrapping would take 13 years of frames at 10 Hz.
         self.frame = self.frame.checked_add(1).expect("frame counter overflow");
         let grid = self.grid;
+        let origin = frame.origin.cast::<f64>();
+        // Pass 1: the voxels that valid rays pass (and, from the column sweep, those where they end).
+        let (window, walked, swept) = self.mark_passed(frame, origin, walk);
         // Borrow the arrays apart so that the hot loop keeps their pointers in registers.
         let mut up = Updater {
             voxels: &mut self.voxels,
@@ -251,26 +254,48 @@ impl Occupancy {
             known: 0,
             update: OccupancyUpdate::default(),
         };
-        let origin = frame.origin.cast::<f64>();
         // Flat voxel indices are layer-major, so the obstacle layers are one index range.
         let obstacle_voxels =
             self.obstacle_layers.start * grid.cells()..self.obstacle_layers.end * grid.cells();
-        // Pass 1: hits, in ray order (which makes the obstacle boxes deterministic).
-        for (dir, &range) in frame.dirs.iter().zip(&frame.range) {
+        // Pass 2: hits, in ray order (which makes the obstacle boxes deterministic).
+        let inv_res = 1.0 / grid.res;
+        // Task `k` swept pixel columns k, k + tasks, ...: the task that holds ray `i`'s end voxel.
+        let (tasks, width) = (self.passed.len(), frame.width.max(1));
+        let (mut col, mut task) = (0, 0);
+        for (i, (dir, &range)) in frame.dirs.iter().zip(&frame.range).enumerate() {
             if range.is_finite() {
-                let end = origin + dir.cast::<f64>() * range as f64;
-                if let Some(v) = voxel_at(&grid, end) {
+                let end = || origin + dir.cast::<f64>() * range as f64;
+                let v = match swept {
+                    true => self.passed[task].1.hits[i],
+                    false => NONE,
+                };
+                let v = match v {
+                    NONE => voxel_at_fast(&grid, inv_res, end()),
+                    v => Some(v as usize),
+                };
+                if let Some(v) = v {
                     up.apply(v, up.rule.hit);
                     if obstacle_voxels.contains(&v) {
+                        let end = end();
                         up.record_hit(v, end.x as f32, end.y as f32);
                     }
                 }
             }
+            col += 1;
+            task += 1;
+            if task == tasks {
+                task = 0;
+            }
+            if col == width {
+                (col, task) = (0, 0);
+            }
         }
         self.known += up.known;
         let mut update = up.update;
-        // Pass 2: misses along every valid ray, to the voxels no hit stamped this frame.
-        let walked = self.integrate_misses(frame, origin, walk, &mut update);
+        // Pass 3: misses, to the voxels no hit stamped this frame.
+        if let Some(window) = window {
+            self.apply_misses(window, &mut update);
+        }
         update.newly_known.sort_unstable();
         update.changed_columns.sort_unstable();
         update.grown_boxes.sort_unstable();
@@ -278,23 +303,21 @@ impl Occupancy {
         (update, walked)
     }
 
-    /// The miss pass of [`Occupancy::integrate`], each voxel's work done once.
+    /// The miss pass of [`Occupancy::integrate`], each voxel's work done once: its first half.
     ///
     /// Rays are traversed in parallel, each task marking the voxels its rays pass through in its own
-    /// bitset (with [`Walk::Columns`], a pixel column's rays at a time); the bitsets are merged (a union: the same whatever the split), and then each marked
-    /// voxel gets one miss, layer by layer in parallel (a layer is a disjoint slice of voxels). Only
-    /// the frame's window (the columns within range of the camera, all layers) of the bitsets is
-    /// touched, so the cost follows the frame, not the map's size. A miss that leaves a known
-    /// voxel's log-odds unchanged (clamped at the minimum) writes nothing. The voxels updated and
-    /// their new states are exactly those of traversing each ray and updating each voxel once.
-    /// Returns the number of pixel columns walked ray by ray.
-    fn integrate_misses(
+    /// layer masks, a word per floor cell and 64 layers (with [`Walk::Columns`], a pixel column's
+    /// rays at a time, one OR per cell and column); the masks are merged into the first task's (a
+    /// union: the same whatever the split). Only the frame's window (the columns within range of
+    /// the camera) of the masks is touched, so the cost follows the frame, not the map's size.
+    /// Returns the window (`None`: nothing marked), the number of pixel columns walked ray by ray,
+    /// and whether the tasks' [`Scratch::hits`] hold the swept rays' end voxels.
+    fn mark_passed(
         &mut self,
         frame: &DepthFrame,
         origin: Point3<f64>,
         walk: Walk,
-        update: &mut OccupancyUpdate,
-    ) -> usize {
+    ) -> (Option<Window>, usize, bool) {
         let grid = self.grid;
         let n = frame.dirs.len().min(frame.range.len());
         // The columns any ray can reach: within the longest ray of the origin (plus a cell for rounding).
@@ -311,161 +334,198 @@ impl Occupancy {
         let y0 = (to_cell(origin.y - reach, grid.origin_y, grid.ny) - 1).max(0);
         let y1 = (to_cell(origin.y + reach, grid.origin_y, grid.ny) + 1).min(grid.ny as i64 - 1);
         if n == 0 || x0 > x1 || y0 > y1 || !reach.is_finite() {
-            return 0;
+            return (None, 0, false);
         }
         let (x0, x1, y0, y1) = (x0 as usize, x1 as usize, y0 as usize, y1 as usize);
         let cells = grid.cells();
-        // The bit ranges [lo, hi] of the window's rows, layer by layer.
-        let rows = move |iz: usize| {
-            (y0..=y1).map(move |iy| {
-                let row = iz * cells + iy * grid.nx;
-                (row + x0, row + x1)
-            })
-        };
+        // Mask words per cell, and the window's rows as ranges of words.
+        let wpc = grid.nz.div_ceil(64);
+        let rows = (y0..=y1).map(move |iy| {
+            let row = iy * grid.nx;
+            (row + x0) * wpc..(row + x1 + 1) * wpc
+        });
         let tasks = rayon::current_num_threads().clamp(1, n);
-        let words = grid.voxels().div_ceil(64);
         self.passed.truncate(tasks);
         while self.passed.len() < tasks {
-            self.passed.push((vec![0; words], Scratch::default()));
+            self.passed.push((vec![0; cells * wpc], Scratch::default()));
         }
         let sweep = match walk {
             Walk::Columns => Sweep::new(&grid, frame, origin),
             Walk::Rays => None,
         };
+        if sweep.is_some() {
+            for (_, scratch) in &mut self.passed {
+                scratch.hits.resize(n, NONE);
+            }
+        }
         // Traverse ray `i`.
         let walk_ray = |bits: &mut [u64], i: usize| {
             let Some(t_end) = frame.free_length(i) else {
                 return;
             };
-            traverse(
-                &grid,
-                origin,
-                frame.dirs[i].cast::<f64>(),
-                t_end as f64,
-                |v, _, _| bits[v >> 6] |= 1u64 << (v & 63),
-            );
+            let dir = frame.dirs[i].cast::<f64>();
+            if wpc > 1 {
+                traverse(&grid, origin, dir, t_end as f64, |v, _, _| {
+                    let (cell, iz) = (v % cells, v / cells);
+                    bits[cell * wpc + (iz >> 6)] |= 1u64 << (iz & 63);
+                });
+                return;
+            }
+            // The walk steps one voxel along one axis at a time: a step of ±cells is one layer, any
+            // other step a new cell. A cell's layers are gathered before they are stored.
+            let (mut cell, mut iz, mut prev, mut mask) = (usize::MAX, 0, 0, 0u64);
+            traverse(&grid, origin, dir, t_end as f64, |v, _, _| {
+                if cell == usize::MAX {
+                    (cell, iz) = (v % cells, v / cells);
+                } else if v == prev + cells {
+                    iz += 1;
+                } else if v + cells == prev {
+                    iz -= 1;
+                } else {
+                    bits[cell] |= mask;
+                    mask = 0;
+                    cell = (cell + v).wrapping_sub(prev);
+                }
+                mask |= 1u64 << iz;
+                prev = v;
+            });
+            if cell != usize::MAX {
+                bits[cell] |= mask;
+            }
         };
         // Task k takes every tasks-th ray (pixel column) from ray (column) k. Interleaved rather than
         // in blocks, because rays are in image order and the lower rows end on the floor soon while
         // the upper ones run far: blocks of rows would leave one task most of the work.
-        let walked: usize = self
-            .passed
-            .par_iter_mut()
-            .enumerate()
-            .map(|(k, (bits, scratch))| {
-                let Some(sweep) = &sweep else {
-                    for i in (k..n).step_by(tasks) {
+        let task = |(k, (bits, scratch)): (usize, &mut (Vec<u64>, Scratch))| {
+            let Some(sweep) = &sweep else {
+                for i in (k..n).step_by(tasks) {
+                    walk_ray(bits, i);
+                }
+                return if k == 0 { frame.width } else { 0 };
+            };
+            let mut walked = 0;
+            for col in (k..frame.width).step_by(tasks) {
+                if sweep.column(col, scratch).is_ok() {
+                    // (The sweep applies to grids of at most 64 layers: one word per cell.)
+                    for &(cell, mask) in &scratch.marks {
+                        bits[cell] |= mask;
+                    }
+                    for &i in &scratch.singles {
                         walk_ray(bits, i);
                     }
-                    return if k == 0 { frame.width } else { 0 };
-                };
-                let mut walked = 0;
-                for col in (k..frame.width).step_by(tasks) {
-                    if sweep.column(col, scratch).is_ok() {
-                        for &(cell, mask) in &scratch.marks {
-                            let mut m = mask;
-                            while m != 0 {
-                                let v = m.trailing_zeros() as usize * cells + cell;
-                                m &= m - 1;
-                                bits[v >> 6] |= 1u64 << (v & 63);
-                            }
-                        }
-                        for &i in &scratch.singles {
-                            walk_ray(bits, i);
-                        }
-                    } else {
-                        walked += 1;
-                        for row in 0..frame.height {
-                            walk_ray(bits, row * frame.width + col);
-                        }
+                } else {
+                    walked += 1;
+                    for row in 0..frame.height {
+                        scratch.hits[row * frame.width + col] = NONE;
+                        walk_ray(bits, row * frame.width + col);
                     }
                 }
-                walked
-            })
-            .sum();
-        // Merge into the first bitset, clearing the others' window.
+            }
+            walked
+        };
+        // One task runs in the calling thread: handing it to the pool and waiting costs a thread
+        // wake-up per frame.
+        let walked: usize = match &mut self.passed[..] {
+            [one] => task((0, one)),
+            all => all.par_iter_mut().enumerate().map(task).sum(),
+        };
+        // Merge into the first task's masks, clearing the others' window.
         let (first, rest) = self.passed.split_first_mut().unwrap();
         let first = &mut first.0;
         for (bits, _) in rest {
-            for iz in 0..grid.nz {
-                for (lo, hi) in rows(iz) {
-                    for w in lo >> 6..=hi >> 6 {
-                        first[w] |= bits[w];
-                        bits[w] = 0;
-                    }
+            for r in rows.clone() {
+                for (a, b) in first[r.clone()].iter_mut().zip(&mut bits[r]) {
+                    *a |= *b;
+                    *b = 0;
                 }
             }
         }
-        // Apply, layer by layer.
-        let (fr, rule) = (self.frame, self.rule);
-        let passed: &[u64] = first;
-        let layers: Vec<(Vec<u32>, Vec<u32>, usize)> = self
-            .voxels
-            .par_chunks_mut(cells)
-            .enumerate()
-            .map(|(iz, layer)| {
-                let (mut newly, mut changed, mut known) = (Vec::new(), Vec::new(), 0usize);
-                let base = iz * cells;
-                for (lo, hi) in rows(iz) {
-                    let (w0, w1) = (lo >> 6, hi >> 6);
-                    for (k, &bits) in passed[w0..=w1].iter().enumerate() {
-                        let w = w0 + k;
-                        let mut word = bits;
-                        // Keep this row's bits only (a word may hold the ends of two rows).
-                        if w == w0 {
-                            word &= u64::MAX << (lo & 63);
-                        }
-                        if w == w1 {
-                            word &= u64::MAX >> (63 - (hi & 63));
-                        }
-                        while word != 0 {
-                            let v = (w << 6) + word.trailing_zeros() as usize;
-                            word &= word - 1;
-                            let local = v - base;
-                            let voxel = &mut layer[local];
-                            let stamp = voxel.stamp;
-                            if stamp == fr {
-                                continue; // a hit this frame
-                            }
-                            let old = voxel.log_odds;
-                            let new = (old + rule.miss).clamp(rule.min, rule.max);
-                            if stamp != 0 && new == old {
-                                continue; // clamped: nothing would change
-                            }
-                            *voxel = Voxel {
-                                log_odds: new,
-                                stamp: fr,
-                            };
-                            if stamp == 0 {
-                                known += 1;
-                                newly.push(v as u32);
-                                changed.push(local as u32);
-                            } else if (old > rule.occupied) != (new > rule.occupied) {
-                                changed.push(local as u32);
-                            }
-                        }
-                    }
-                }
-                (newly, changed, known)
-            })
-            .collect();
-        for (newly, changed, known) in layers {
-            self.known += known;
-            update.newly_known.extend(newly);
-            for c in changed {
-                if self.column_stamp[c as usize] != fr {
-                    self.column_stamp[c as usize] = fr;
-                    update.changed_columns.push(c);
-                }
-            }
-        }
-        for iz in 0..grid.nz {
-            for (lo, hi) in rows(iz) {
-                first[lo >> 6..=hi >> 6].fill(0);
-            }
-        }
-        walked
+        (Some(Window { x0, x1, y0, y1 }), walked, sweep.is_some())
     }
+
+    /// The second half of the miss pass: each voxel that [`Occupancy::mark_passed`] marked in
+    /// `window` gets one miss, unless a hit stamped it this frame; a miss that leaves a known
+    /// voxel's log-odds unchanged (clamped at the minimum) writes nothing. The voxels updated and
+    /// their new states are exactly those of traversing each ray and updating each voxel once.
+    fn apply_misses(&mut self, window: Window, update: &mut OccupancyUpdate) {
+        let Window { x0, x1, y0, y1 } = window;
+        let grid = self.grid;
+        let (cells, wpc) = (grid.cells(), grid.nz.div_ceil(64));
+        let first = &mut self.passed[0].0;
+        // Apply, cell by cell, clearing the masks as they are read.
+        let (fr, rule) = (self.frame, self.rule);
+        let voxels = &mut self.voxels[..];
+        let (mut known, newly) = (0, &mut update.newly_known);
+        // The misses of layers `base..` + the bits of `m` in column `cell`; whether a voxel's state
+        // changed.
+        let mut apply = |cell: usize, base: usize, mut m: u64| {
+            let mut changed = false;
+            while m != 0 {
+                let v = (base + m.trailing_zeros() as usize) * cells + cell;
+                m &= m - 1;
+                let voxel = &mut voxels[v];
+                let stamp = voxel.stamp;
+                if stamp == fr {
+                    continue; // a hit this frame
+                }
+                let old = voxel.log_odds;
+                let new = (old + rule.miss).clamp(rule.min, rule.max);
+                if stamp != 0 && new == old {
+                    continue; // clamped: nothing would change
+                }
+                *voxel = Voxel {
+                    log_odds: new,
+                    stamp: fr,
+                };
+                if stamp == 0 {
+                    known += 1;
+                    newly.push(v as u32);
+                    changed = true;
+                } else if (old > rule.occupied) != (new > rule.occupied) {
+                    changed = true;
+                }
+            }
+            changed
+        };
+        let (column_stamp, changed) = (&mut self.column_stamp, &mut update.changed_columns);
+        let mut changed_column = |cell: usize| {
+            if column_stamp[cell] != fr {
+                column_stamp[cell] = fr;
+                changed.push(cell as u32);
+            }
+        };
+        for iy in y0..=y1 {
+            let row = iy * grid.nx;
+            if wpc == 1 {
+                for (k, word) in first[row + x0..=row + x1].iter_mut().enumerate() {
+                    if *word != 0 && apply(row + x0 + k, 0, std::mem::take(word)) {
+                        changed_column(row + x0 + k);
+                    }
+                }
+                continue;
+            }
+            for cell in row + x0..=row + x1 {
+                let mut changed = false;
+                for j in 0..wpc {
+                    let m = std::mem::take(&mut first[cell * wpc + j]);
+                    changed |= apply(cell, j * 64, m);
+                }
+                if changed {
+                    changed_column(cell);
+                }
+            }
+        }
+        self.known += known;
+    }
+}
+
+/// The floor cells `x0..=x1` × `y0..=y1` that a frame's rays can reach.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
 }
 
 /// How the miss pass finds the voxels that rays pass.
@@ -569,6 +629,30 @@ fn voxel_at(grid: &GridSpec, p: Point3<f64>) -> Option<usize> {
     .then(|| (iz as usize * grid.ny + iy as usize) * grid.nx + ix as usize)
 }
 
+/// [`voxel_at`] with the divisions by the resolution replaced by products with `inv_res` (`1 / res`)
+/// where that cannot change a floor: the two quotients differ by a few ulps, so a point more than
+/// 1e-9 cells inside its cell along every axis is in the same voxel; others take the divisions.
+#[inline(always)]
+fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Option<usize> {
+    let along = |x: f64, lo: f64| -> Option<i64> {
+        let u = (x - lo) * inv_res;
+        let l = floor_i64(u);
+        let frac = u - l as f64;
+        (frac > 1e-9 && frac < 1.0 - 1e-9).then_some(l)
+    };
+    let (Some(ix), Some(iy), Some(iz)) = (
+        along(p.x, grid.origin_x),
+        along(p.y, grid.origin_y),
+        along(p.z, 0.0),
+    ) else {
+        return voxel_at(grid, p);
+    };
+    ((0..grid.nx as i64).contains(&ix)
+        && (0..grid.ny as i64).contains(&iy)
+        && (0..grid.nz as i64).contains(&iz))
+    .then(|| (iz as usize * grid.ny + iy as usize) * grid.nx + ix as usize)
+}
+
 /// `x.floor()` without a libm call (the baseline x86-64 target has no rounding instruction).
 #[inline(always)]
 pub(super) fn floor_i64(x: f64) -> i64 {
@@ -577,8 +661,9 @@ pub(super) fn floor_i64(x: f64) -> i64 {
 }
 
 /// The part `[t0, t1)` of the segment from `origin` along `dir` for length `t_end` that lies in the
-/// grid's box (slab test), or `None` if it misses the box. The voxel walk and the column sweep
-/// (`super::column_sweep`) both clip with it, so that they end every ray at the same distance.
+/// grid's box (slab test), or `None` if it misses the box. The voxel walk clips with it; the column
+/// sweep (`super::column_sweep`) takes the same quotients along the axes that can cut a ray, so
+/// that both end every ray at the same distance.
 #[inline(always)]
 pub(super) fn clip_to_grid(
     grid: &GridSpec,
