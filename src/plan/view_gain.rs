@@ -5,7 +5,7 @@
 use super::search::DistanceField;
 use crate::config::{CameraConfig, Config, NbvConfig, VolumeViewsConfig};
 use crate::grid::GridSpec;
-use crate::map::occupancy::{traverse, VoxelState};
+use crate::map::occupancy::{traverse, Occupancy, VoxelState};
 use crate::map::Map;
 use nalgebra::{Point2, Point3, Vector3};
 use rayon::prelude::*;
@@ -14,6 +14,17 @@ use std::ops::Range;
 
 /// Rays stop contributing once their visibility falls below this.
 const MIN_VISIBILITY: f64 = 1e-3;
+
+/// What voxel `v` does to a ray's visibility, as one number: NaN if Unknown; if Free, ln(1 − p) =
+/// −ln(1 + e^l) for log-odds l (negative); if Occupied, 1 / (1 − p) = 1 + e^l (at least 1).
+fn attenuation(occ: &Occupancy, v: usize) -> f64 {
+    let l = || occ.log_odds(v) as f64;
+    match occ.state(v) {
+        VoxelState::Unknown => f64::NAN,
+        VoxelState::Free => -(l().exp().ln_1p()),
+        VoxelState::Occupied => 1.0 + l().exp(),
+    }
+}
 
 /// The coarse ray fan of the gain model (all yaws at once) and its constants.
 #[derive(Clone)]
@@ -87,12 +98,35 @@ impl GainModel {
         origin: Point3<f64>,
         az: f64,
         k: usize,
+        visit: impl FnMut(usize, f64),
+    ) -> f64 {
+        let occ = map.occupancy();
+        self.cast_with(
+            occ.grid(),
+            |v| attenuation(occ, v),
+            band,
+            origin,
+            az,
+            k,
+            visit,
+        )
+    }
+
+    /// [`GainModel::cast`] reading each voxel's [`attenuation`] through `att`, which may be a table
+    /// of them (the same numbers, computed once for many casts).
+    #[allow(clippy::too_many_arguments)]
+    fn cast_with(
+        &self,
+        grid: &GridSpec,
+        att: impl Fn(usize) -> f64,
+        band: &Range<usize>,
+        origin: Point3<f64>,
+        az: f64,
+        k: usize,
         mut visit: impl FnMut(usize, f64),
     ) -> f64 {
         let (s_el, c_el, _) = self.rows[k];
         let dir = Vector3::new(c_el * az.cos(), c_el * az.sin(), s_el);
-        let occ = map.occupancy();
-        let grid = occ.grid();
         let layer_len = grid.cells();
         let inv_l = 1.0 / self.visibility_length_m;
         let ln_half = 0.5f64.ln();
@@ -104,27 +138,24 @@ impl GainModel {
             }
             let seg = t_out - t_in;
             visit(v % layer_len, vis);
-            match occ.state(v) {
-                VoxelState::Unknown => {
-                    let factor = (ln_half * seg * inv_l).exp();
-                    let t_from = t_in.max(self.min_range_m);
-                    if t_out > t_from && band.contains(&(v / layer_len)) {
-                        // Midpoint rule over the part of the voxel beyond the minimum range.
-                        let t = 0.5 * (t_from + t_out);
-                        let vis_mid = vis * (ln_half * (t - t_in) * inv_l).exp();
-                        sum += 0.5 * vis_mid * t * t * (t_out - t_from);
-                    }
-                    vis *= factor;
+            let a = att(v);
+            if a.is_nan() {
+                // Unknown.
+                let factor = (ln_half * seg * inv_l).exp();
+                let t_from = t_in.max(self.min_range_m);
+                if t_out > t_from && band.contains(&(v / layer_len)) {
+                    // Midpoint rule over the part of the voxel beyond the minimum range.
+                    let t = 0.5 * (t_from + t_out);
+                    let vis_mid = vis * (ln_half * (t - t_in) * inv_l).exp();
+                    sum += 0.5 * vis_mid * t * t * (t_out - t_from);
                 }
-                VoxelState::Free => {
-                    // ln(1 − p) = −ln(1 + e^l) for log-odds l.
-                    let l = occ.log_odds(v) as f64;
-                    vis *= (-(l.exp().ln_1p()) * seg * inv_l).exp();
-                }
-                VoxelState::Occupied => {
-                    let l = occ.log_odds(v) as f64;
-                    vis /= 1.0 + l.exp();
-                }
+                vis *= factor;
+            } else if a.is_sign_negative() {
+                // Free: `a` = ln(1 − p).
+                vis *= (a * seg * inv_l).exp();
+            } else {
+                // Occupied: `a` = 1 / (1 − p).
+                vis /= a;
             }
         });
         sum
@@ -132,13 +163,22 @@ impl GainModel {
 
     /// The best-yaw gain at `p` (Eq. 6 over one field of view, best of `n_az` yaws).
     pub fn evaluate(&self, map: &Map, p: Point2<f64>) -> Gain {
-        let band = map.grid().layers_in(self.band_m.0, self.band_m.1);
+        let occ = map.occupancy();
+        self.evaluate_with(occ.grid(), |v| attenuation(occ, v), p)
+    }
+
+    /// [`GainModel::evaluate`] reading the voxels' [`attenuation`] through `att`.
+    fn evaluate_with(&self, grid: &GridSpec, att: impl Fn(usize) -> f64, p: Point2<f64>) -> Gain {
+        let band = grid.layers_in(self.band_m.0, self.band_m.1);
         let origin = Point3::new(p.x, p.y, self.mount_m);
         let cols: Vec<f64> = (0..self.n_az)
             .map(|a| {
                 let az = self.azimuth(a);
                 (0..self.rows.len())
-                    .map(|k| self.rows[k].2 * self.cast(map, &band, origin, az, k, |_, _| {}))
+                    .map(|k| {
+                        let ray = self.cast_with(grid, &att, &band, origin, az, k, |_, _| {});
+                        self.rows[k].2 * ray
+                    })
                     .sum()
             })
             .collect();
@@ -321,12 +361,26 @@ impl VolumeViews {
             .map(|&(_, i)| i)
             .filter(|&i| self.gains[i].is_nan() || changed.any_within(&grid, i, reach))
             .collect();
+        if stale.is_empty() {
+            self.gains_frame = occ.frames();
+            return;
+        }
+        // Each voxel's attenuation once, rather than once per ray that crosses it.
+        let mut table = vec![0.0; grid.voxels()];
+        table
+            .par_chunks_mut(grid.cells())
+            .enumerate()
+            .for_each(|(layer, out)| {
+                let first = layer * grid.cells();
+                for (j, a) in out.iter_mut().enumerate() {
+                    *a = attenuation(occ, first + j);
+                }
+            });
         let fresh: Vec<f64> = stale
             .par_iter()
             .map(|&i| {
-                self.model
-                    .evaluate(map, grid.center(grid.cell(i)))
-                    .volume_m3
+                let p = grid.center(grid.cell(i));
+                self.model.evaluate_with(&grid, |v| table[v], p).volume_m3
             })
             .collect();
         for (&i, g) in stale.iter().zip(fresh) {
