@@ -427,6 +427,32 @@ mod tests {
         (map, bvh)
     }
 
+    /// Steps `exec` from `pose` until its action ends or `max_steps` pass, asserting at every step
+    /// that the robot's cylinder does not touch the mesh; the last pose and status.
+    fn drive(
+        cfg: &Config,
+        exec: &mut MotionExecutor,
+        map: &Map,
+        bvh: &MeshBvh,
+        mut pose: Pose2,
+        max_steps: usize,
+    ) -> (Pose2, MotionStatus) {
+        let top = cfg.robot.height_m.min(cfg.map.band_max_m);
+        let mut status = MotionStatus::Busy;
+        for _ in 0..max_steps {
+            let (cmd, s) = exec.step(pose, map);
+            pose = super::super::robot::integrate(pose, cmd.v, cmd.w, cfg.sim.dt_s);
+            let (x, y, r) = (pose.x, pose.y, cfg.robot.radius_m);
+            let hit = bvh.cylinder_intersects(x, y, r, cfg.map.band_min_m, top);
+            assert!(!hit, "collision at {pose:?}");
+            status = s;
+            if s != MotionStatus::Busy {
+                break;
+            }
+        }
+        (pose, status)
+    }
+
     #[test]
     fn a_path_around_a_door_jamb_is_followed_without_touching_it() {
         let cfg = Config::default();
@@ -451,40 +477,18 @@ mod tests {
             path,
             look_on_arrival: false,
         });
-        let mut pose = Pose2::new(start.x, start.y, PI / 2.0);
-        let top = cfg.robot.height_m.min(cfg.map.band_max_m);
-        let mut status = MotionStatus::Busy;
-        for _ in 0..2000 {
-            let (cmd, s) = exec.step(pose, &map);
-            pose = super::super::robot::integrate(pose, cmd.v, cmd.w, cfg.sim.dt_s);
-            assert!(
-                !bvh.cylinder_intersects(
-                    pose.x,
-                    pose.y,
-                    cfg.robot.radius_m,
-                    cfg.map.band_min_m,
-                    top
-                ),
-                "collision at {pose:?}"
-            );
-            status = s;
-            if s != MotionStatus::Busy {
-                break;
-            }
-        }
+        let pose = Pose2::new(start.x, start.y, PI / 2.0);
+        let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 2000);
         assert_eq!(status, MotionStatus::Done, "stopped at {pose:?}");
         assert!((pose.position() - goal).norm() <= cfg.motion.goal_tolerance_m + 1e-9);
     }
 
-    /// Two walls 0.55 m apart, seen from all sides, with the robot between them facing along the gap:
-    /// straight away from the nearer wall leads toward the other, so the robot backs off along the
-    /// gap, the way it came.
-    #[test]
-    fn backing_off_between_two_hazards_follows_the_gap() {
-        let cfg = Config::default();
+    /// Two 0.4 m wide boxes, one from y = 0 to `lower_top`, one from `upper_bottom` to y = 1 (x 0.8–1.2,
+    /// 1 m tall), mapped from looks around on all four sides.
+    fn gap_between_boxes(cfg: &Config, lower_top: f32, upper_bottom: f32) -> (Map, MeshBvh) {
         let mut mesh = TriMesh::default();
-        push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, 0.225, 1.0]);
-        push_box(&mut mesh, [0.8, 0.775, 0.0], [1.2, 1.0, 1.0]);
+        push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, lower_top, 1.0]);
+        push_box(&mut mesh, [0.8, upper_bottom, 0.0], [1.2, 1.0, 1.0]);
         let bvh = MeshBvh::new(&mesh).unwrap();
         let grid = GridSpec::covering(
             Point2::new(-1.0, -1.5),
@@ -495,7 +499,16 @@ mod tests {
         let looks = [(-0.5, 0.5), (2.5, 0.5), (1.0, -1.2), (1.0, 2.2)]
             .into_iter()
             .flat_map(|(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
-        let map = seen_from(grid, &cfg, &bvh, looks);
+        (seen_from(grid, cfg, &bvh, looks), bvh)
+    }
+
+    /// Two walls 0.55 m apart, seen from all sides, with the robot between them facing along the gap:
+    /// straight away from the nearer wall leads toward the other, so the robot backs off along the
+    /// gap, the way it came.
+    #[test]
+    fn backing_off_between_two_hazards_follows_the_gap() {
+        let cfg = Config::default();
+        let (map, _) = gap_between_boxes(&cfg, 0.225, 0.775);
         let here = Point2::new(1.0, 0.5);
         let max_m = cfg.motion.slow_clearance_m.get();
         let clearance = obstacle_clearance(&map, here, max_m);
@@ -528,24 +541,11 @@ mod tests {
     #[test]
     fn backing_off_with_clearance_to_spare_leaves_the_gap() {
         let cfg = Config::default();
-        let mut mesh = TriMesh::default();
-        push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, 0.21, 1.0]);
-        push_box(&mut mesh, [0.8, 0.79, 0.0], [1.2, 1.0, 1.0]);
-        let bvh = MeshBvh::new(&mesh).unwrap();
-        let grid = GridSpec::covering(
-            Point2::new(-1.0, -1.5),
-            Point2::new(3.0, 2.5),
-            cfg.map.band_max_m,
-            cfg.map.voxel_m,
-        );
-        let looks = [(-0.5, 0.5), (2.5, 0.5), (1.0, -1.2), (1.0, 2.2)]
-            .into_iter()
-            .flat_map(|(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
-        let map = seen_from(grid, &cfg, &bvh, looks);
+        let (map, bvh) = gap_between_boxes(&cfg, 0.21, 0.79);
         let params = MotionParams::from(&cfg);
         let mut exec = MotionExecutor::new(&params);
         let max_m = cfg.motion.slow_clearance_m.get();
-        let mut pose = Pose2::new(1.0, 0.495, -PI / 2.0);
+        let pose = Pose2::new(1.0, 0.495, -PI / 2.0);
         let start = obstacle_clearance(&map, pose.position(), max_m);
         assert!(
             start > exec.guard_clearance && start < exec.free_clearance,
@@ -555,19 +555,7 @@ mod tests {
             path: vec![pose.position(), Point2::new(1.0, 0.1)],
             look_on_arrival: false,
         });
-        let top = cfg.robot.height_m.min(cfg.map.band_max_m);
-        let mut status = MotionStatus::Busy;
-        for _ in 0..200 {
-            let (cmd, s) = exec.step(pose, &map);
-            pose = super::super::robot::integrate(pose, cmd.v, cmd.w, cfg.sim.dt_s);
-            let (x, y, r) = (pose.x, pose.y, cfg.robot.radius_m);
-            let hit = bvh.cylinder_intersects(x, y, r, cfg.map.band_min_m, top);
-            assert!(!hit, "collision at {pose:?}");
-            status = s;
-            if s != MotionStatus::Busy {
-                break;
-            }
-        }
+        let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 200);
         assert_eq!(status, MotionStatus::Blocked);
         let end = obstacle_clearance(&map, pose.position(), max_m);
         assert!(
