@@ -623,6 +623,12 @@ fn voxel_at(grid: &GridSpec, p: Point3<f64>) -> Option<usize> {
     let ix = floor_i64((p.x - grid.origin_x) / grid.res);
     let iy = floor_i64((p.y - grid.origin_y) / grid.res);
     let iz = floor_i64(p.z / grid.res);
+    checked_voxel(grid, ix, iy, iz)
+}
+
+/// The flat index of voxel `(ix, iy, iz)`, or `None` outside the grid.
+#[inline(always)]
+fn checked_voxel(grid: &GridSpec, ix: i64, iy: i64, iz: i64) -> Option<usize> {
     ((0..grid.nx as i64).contains(&ix)
         && (0..grid.ny as i64).contains(&iy)
         && (0..grid.nz as i64).contains(&iz))
@@ -647,10 +653,7 @@ fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Option<usize>
     ) else {
         return voxel_at(grid, p);
     };
-    ((0..grid.nx as i64).contains(&ix)
-        && (0..grid.ny as i64).contains(&iy)
-        && (0..grid.nz as i64).contains(&iz))
-    .then(|| (iz as usize * grid.ny + iy as usize) * grid.nx + ix as usize)
+    checked_voxel(grid, ix, iy, iz)
 }
 
 /// `x.floor()` without a libm call (the baseline x86-64 target has no rounding instruction).
