@@ -363,13 +363,13 @@ impl VolumeViews {
             // Another map (or a first call): nothing to keep.
             self.gains = vec![f64::NAN; grid.cells()];
         }
-        let changed = ChangedNear::new(&grid, &occ.columns_changed_after(self.gains_frame));
-        // A ray reaches `max_range_m` horizontally at most; one more cell for the voxel it ends in.
-        let reach = (self.model.max_range_m / grid.res).ceil() as i64 + 1;
+        // A ray reaches `max_range_m` horizontally at most; a cell more for rounding at its end.
+        let reach = self.model.max_range_m / grid.res + 1.0;
+        let changed = ChangedNear::new(&grid, &occ.columns_changed_after(self.gains_frame), reach);
         let stale: Vec<usize> = candidates
             .iter()
             .map(|&(_, i)| i)
-            .filter(|&i| self.gains[i].is_nan() || changed.any_within(&grid, i, reach))
+            .filter(|&i| self.gains[i].is_nan() || changed.any_within(&grid, i))
             .collect();
         if stale.is_empty() {
             self.gains_frame = occ.frames();
@@ -422,37 +422,63 @@ impl VolumeViews {
     }
 }
 
-/// Summed-area table of changed columns: whether any lies in a square around a cell, in O(1).
+/// Changed columns as prefix counts along each row: whether any lies within a disc around a cell,
+/// in one lookup per row of the disc.
 struct ChangedNear {
-    /// `(nx + 1) × (ny + 1)` prefix counts.
+    /// Per row, `nx + 1` prefix counts.
     sums: Vec<u32>,
+    nx: usize,
+    ny: usize,
+    /// Per row offset `0..=radius`, the disc's half-width in cells.
+    half: Vec<i64>,
 }
 
 impl ChangedNear {
-    fn new(grid: &GridSpec, changed: &[bool]) -> Self {
+    /// The disc holds the cells whose nearest point lies within `radius` cells of the centre cell's
+    /// centre.
+    fn new(grid: &GridSpec, changed: &[bool], radius: f64) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
-        let mut sums = vec![0u32; (nx + 1) * (ny + 1)];
+        let mut sums = vec![0u32; (nx + 1) * ny];
         for y in 0..ny {
-            let mut row = 0u32;
+            let row = &mut sums[y * (nx + 1)..(y + 1) * (nx + 1)];
             for x in 0..nx {
-                row += u32::from(changed[y * nx + x]);
-                sums[(y + 1) * (nx + 1) + x + 1] = sums[y * (nx + 1) + x + 1] + row;
+                row[x + 1] = row[x] + u32::from(changed[y * nx + x]);
             }
         }
-        ChangedNear { sums }
+        // From a cell centre, the nearest point of the cell `d` cells away is `d − ½` cells away.
+        let gap = |d: i64| (d as f64 - 0.5).max(0.0);
+        let rows = (0..).take_while(|&dy| gap(dy) <= radius);
+        let half = rows
+            .map(|dy| {
+                let left = radius * radius - gap(dy) * gap(dy);
+                (0..)
+                    .take_while(|&dx| gap(dx) * gap(dx) <= left)
+                    .last()
+                    .unwrap_or(0)
+            })
+            .collect();
+        ChangedNear { sums, nx, ny, half }
     }
 
-    /// Whether a changed column lies within `reach` cells (in x and y) of cell `i`.
-    fn any_within(&self, grid: &GridSpec, i: usize, reach: i64) -> bool {
+    /// Whether a changed column lies within the disc around cell `i`.
+    fn any_within(&self, grid: &GridSpec, i: usize) -> bool {
         let c = grid.cell(i);
-        let (nx, ny) = (grid.nx as i64, grid.ny as i64);
-        let x0 = (c.x as i64 - reach).clamp(0, nx) as usize;
-        let x1 = (c.x as i64 + reach + 1).clamp(0, nx) as usize;
-        let y0 = (c.y as i64 - reach).clamp(0, ny) as usize;
-        let y1 = (c.y as i64 + reach + 1).clamp(0, ny) as usize;
-        let w = grid.nx + 1;
-        let s = |x: usize, y: usize| i64::from(self.sums[y * w + x]);
-        s(x1, y1) - s(x0, y1) - s(x1, y0) + s(x0, y0) > 0
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let (cx, cy) = (c.x as i64, c.y as i64);
+        self.half.iter().enumerate().any(|(dy, &hw)| {
+            let dy = dy as i64;
+            let x0 = (cx - hw).clamp(0, nx) as usize;
+            let x1 = (cx + hw + 1).clamp(0, nx) as usize;
+            let rows = if dy == 0 {
+                [cy, cy]
+            } else {
+                [cy - dy, cy + dy]
+            };
+            rows.into_iter().filter(|y| (0..ny).contains(y)).any(|y| {
+                let row = &self.sums[y as usize * (self.nx + 1)..];
+                row[x1] > row[x0]
+            })
+        })
     }
 }
 
@@ -466,6 +492,7 @@ mod tests {
     use crate::sensor::raycast::MeshBvh;
     use crate::util::wrap_angle;
     use crate::Pose2;
+    use rand::{Rng, SeedableRng};
 
     fn floor_grid(cfg: &Config, half: f64) -> GridSpec {
         GridSpec::covering(
@@ -702,6 +729,31 @@ mod tests {
             again < all,
             "nothing was kept: {again} of {all} evaluated again"
         );
+    }
+
+    /// The disc of changed columns finds exactly the cells with a changed column whose nearest
+    /// point lies within the radius of the cell's centre (brute force over every pair), near the
+    /// grid's edges too.
+    #[test]
+    fn changed_columns_are_found_within_the_disc() {
+        let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(2.4, 1.9), 2.0, 0.1);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let changed: Vec<bool> = (0..grid.cells()).map(|_| rng.gen_bool(0.01)).collect();
+        for radius in [0.0, 1.0, 3.7, 6.0, 51.0] {
+            let near = ChangedNear::new(&grid, &changed, radius);
+            for i in 0..grid.cells() {
+                let p = grid.center(grid.cell(i));
+                let want = (0..grid.cells()).filter(|&j| changed[j]).any(|j| {
+                    // The nearest point of cell j's square to p.
+                    let q = grid.center(grid.cell(j));
+                    let h = 0.5 * grid.res;
+                    let d =
+                        Point2::new(p.x.clamp(q.x - h, q.x + h), p.y.clamp(q.y - h, q.y + h)) - p;
+                    d.norm() <= radius * grid.res + 1e-9
+                });
+                assert_eq!(near.any_within(&grid, i), want, "cell {i}, radius {radius}");
+            }
+        }
     }
 
     /// A cutoff no view reaches ends the volume views at once; switched off, there are none (on by
