@@ -177,7 +177,7 @@ impl DepthCamera {
             &mut frame.range,
         );
         let (min_range, max_range) = (self.min_range, self.max_range);
-        for r in &mut frame.range {
+        let rule = |r: &mut f32| {
             *r = if *r >= max_range {
                 f32::INFINITY
             } else if *r < min_range {
@@ -185,6 +185,11 @@ impl DepthCamera {
             } else {
                 *r
             };
+        };
+        if rayon::current_num_threads() > 1 {
+            frame.range.par_iter_mut().with_min_len(4096).for_each(rule);
+        } else {
+            frame.range.iter_mut().for_each(rule);
         }
     }
 }

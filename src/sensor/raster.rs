@@ -430,58 +430,79 @@ impl MeshRaster {
         for v in sc.rays.iter_mut().chain([&mut sc.depth]) {
             v.resize(h * stride, 0.0);
         }
-        let [xs, ys, zs] = &mut sc.rays;
-        let rows = (xs.chunks_exact_mut(stride).zip(ys.chunks_exact_mut(stride))).zip(
-            zs.chunks_exact_mut(stride)
-                .zip(sc.depth.chunks_exact_mut(stride)),
-        );
-        for (((x, y), (z, depth)), src) in rows.zip(dirs.chunks_exact(w)) {
-            for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
-                (*x, *y, *z) = (d.x, d.y, d.z);
-            }
-            for v in [x, y, z] {
-                v[w..].fill(0.0);
-            }
-            depth[..w].fill(cam.max_range);
-            depth[w..].fill(0.0);
-        }
-        // Rows below the image in the last tile row count as padding.
-        sc.row_max.clear();
-        sc.row_max.extend((0..down * across).map(|k| {
-            let rows = h - k / across * TILE;
-            std::array::from_fn(|r| if r < rows { cam.max_range } else { 0.0 })
-        }));
-        sc.tile_max.clear();
-        sc.tile_max.resize(down * across, cam.max_range);
-        let (list, order, rays) = (&sc.list, &sc.order, &sc.rays);
+        sc.row_max.resize(down * across, [0.0; TILE]);
+        sc.tile_max.resize(down * across, 0.0);
+        let (list, order) = (&sc.list, &sc.order);
         let tile_rows = (PIXELS_PER_TASK / (stride * TILE)).max(1);
-        let (pixels, tiles) = (tile_rows * TILE * stride, tile_rows * across);
-        let fill = |(task, ((depth, row_max), max))| {
+        // Per band: z-buffer pixels, tiles, and image pixels (`w` a row).
+        let (pixels, tiles, image) = (
+            tile_rows * TILE * stride,
+            tile_rows * across,
+            tile_rows * TILE * w,
+        );
+        let [xs, ys, zs] = &mut sc.rays;
+        // Each task copies its band's rays in and its depths out, so that those run in parallel too.
+        let fill = |(task, ((((x, y), z), depth), ((row_max, max), (src, out)))): BandParts| {
             let r0 = task * tile_rows * TILE;
+            let rows = src.len() / w;
+            for (((x, y), z), src) in (x.chunks_exact_mut(stride).zip(y.chunks_exact_mut(stride)))
+                .zip(z.chunks_exact_mut(stride))
+                .zip(src.chunks_exact(w))
+            {
+                for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
+                    (*x, *y, *z) = (d.x, d.y, d.z);
+                }
+                for v in [x, y, z] {
+                    v[w..].fill(0.0);
+                }
+            }
+            for row in depth.chunks_exact_mut(stride) {
+                row[..w].fill(cam.max_range);
+                row[w..].fill(0.0);
+            }
+            // Rows below the image in the last tile row count as padding.
+            for (k, m) in row_max.iter_mut().enumerate() {
+                let left = rows - k / across * TILE;
+                *m = std::array::from_fn(|r| if r < left { cam.max_range } else { 0.0 });
+            }
+            max.fill(cam.max_range);
             let band = Band {
                 r0,
-                depth,
+                rays: [&*x, &*y, &*z],
+                depth: &mut *depth,
                 row_max,
                 max,
             };
-            fill_band(list, order, rays, stride, band);
+            fill_band(list, order, stride, band);
+            for (out, z) in out.chunks_exact_mut(w).zip(depth.chunks_exact(stride)) {
+                out.copy_from_slice(&z[..w]);
+            }
         };
         // On one thread, in this one: handing a frame to a pool's worker and waiting costs wakeups.
         if rayon::current_num_threads() > 1 {
-            (sc.depth.par_chunks_mut(pixels))
-                .zip(sc.row_max.par_chunks_mut(tiles))
-                .zip(sc.tile_max.par_chunks_mut(tiles))
+            (xs.par_chunks_mut(pixels).zip(ys.par_chunks_mut(pixels)))
+                .zip(zs.par_chunks_mut(pixels))
+                .zip(sc.depth.par_chunks_mut(pixels))
+                .zip(
+                    (sc.row_max
+                        .par_chunks_mut(tiles)
+                        .zip(sc.tile_max.par_chunks_mut(tiles)))
+                    .zip(dirs.par_chunks(image).zip(range.par_chunks_mut(image))),
+                )
                 .enumerate()
                 .for_each(fill);
         } else {
-            (sc.depth.chunks_mut(pixels))
-                .zip(sc.row_max.chunks_mut(tiles))
-                .zip(sc.tile_max.chunks_mut(tiles))
+            (xs.chunks_mut(pixels).zip(ys.chunks_mut(pixels)))
+                .zip(zs.chunks_mut(pixels))
+                .zip(sc.depth.chunks_mut(pixels))
+                .zip(
+                    (sc.row_max
+                        .chunks_mut(tiles)
+                        .zip(sc.tile_max.chunks_mut(tiles)))
+                    .zip(dirs.chunks(image).zip(range.chunks_mut(image))),
+                )
                 .enumerate()
-                .for_each(&fill);
-        }
-        for (out, z) in range.chunks_exact_mut(w).zip(sc.depth.chunks_exact(stride)) {
-            out.copy_from_slice(&z[..w]);
+                .for_each(fill);
         }
     }
 
@@ -746,9 +767,28 @@ fn lanes_max(v: &[f32; TILE]) -> f32 {
     m[0].max(m[2]).max(m[1].max(m[3]))
 }
 
+/// One band of the z-buffer's rows, with its mutable parts (see `MeshRaster::render_ranges`):
+/// the rays' x, y and z arrays, the z-buffer, the tiles' row maxima and maxima, and the pixel rays
+/// and range rows of the image.
+type BandParts<'a> = (
+    usize,
+    (
+        (
+            ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
+            &'a mut [f32],
+        ),
+        (
+            (&'a mut [[f32; TILE]], &'a mut [f32]),
+            (&'a [Vector3<f32>], &'a mut [f32]),
+        ),
+    ),
+);
+
 /// One task's share of the z-buffer: whole tile rows from image row `r0` (a multiple of [`TILE`]).
 struct Band<'a> {
     r0: usize,
+    /// The rays' coordinates in the band's rows (rows of `stride`).
+    rays: [&'a [f32]; 3],
     /// The z-buffer's rows.
     depth: &'a mut [f32],
     /// Per tile of the band, the largest depth of each pixel row, and of the tile: kept exact as
@@ -758,20 +798,14 @@ struct Band<'a> {
 }
 
 /// Fills `band` of the z-buffer (`stride` pixels a row, a multiple of [`TILE`]) with the triangles
-/// `list[order[..].1]`, in that order, for the pixel rays `rays` (coordinate arrays of the whole
-/// image, rows of `stride`). A triangle whose near bound is at least every depth in a tile cannot win
+/// `list[order[..].1]`, in that order, for the band's pixel rays. A triangle whose near bound is at least every depth in a tile cannot win
 /// a pixel there (its test returns no less than the bound, and a pixel keeps only a strictly nearer
 /// hit), so that tile is skipped, and a tile row whose tiles are all skipped costs no spans. Within
 /// a triangle each pixel is tested once, so the order of its tiles does not matter.
-fn fill_band(
-    list: &[Setup],
-    order: &[(f32, u32)],
-    rays: &[Vec<f32>; 3],
-    stride: usize,
-    band: Band,
-) {
+fn fill_band(list: &[Setup], order: &[(f32, u32)], stride: usize, band: Band) {
     let Band {
         r0,
+        rays,
         depth,
         row_max,
         max,
@@ -816,7 +850,7 @@ fn fill_band(
                     if c1 < at || c0 >= at + TILE || culls && row_max[k][row % TILE] <= s.near {
                         continue;
                     }
-                    let i = row * stride + at;
+                    let i = (row - r0) * stride + at;
                     let lanes =
                         |k: usize| -> &[f32; TILE] { rays[k][i..i + TILE].try_into().unwrap() };
                     let ray = [lanes(0), lanes(1), lanes(2)];
