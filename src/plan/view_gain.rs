@@ -738,7 +738,7 @@ mod tests {
     fn changed_columns_are_found_within_the_disc() {
         let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(2.4, 1.9), 2.0, 0.1);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let changed: Vec<bool> = (0..grid.cells()).map(|_| rng.gen_bool(0.01)).collect();
+        let changed: Vec<bool> = (0..grid.cells()).map(|_| rng.random_bool(0.01)).collect();
         for radius in [0.0, 1.0, 3.7, 6.0, 51.0] {
             let near = ChangedNear::new(&grid, &changed, radius);
             for i in 0..grid.cells() {
