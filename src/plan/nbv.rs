@@ -21,7 +21,9 @@
 //!   `cover_min_visibility`. Marks are rebuilt each planning step from the surviving viewpoints, so
 //!   a pruned viewpoint's area can be sampled again.
 //! - Viewpoints with gain below `gain_cutoff_m3` are not kept at all (Alg. 4 would prune them
-//!   at the next step anyway).
+//!   at the next step anyway). The paper gives no value for Alg. 4's CutoffThreshold; 0.05 m³ is
+//!   the largest tried that brings the mean completeness on 33 real plans × 3 random starts to
+//!   0.95 (0.1 m³ gave 0.947).
 //! - Eq. 7 uses the path cost of the shared search (`costs_to_targets`, metres with the proximity
 //!   surcharge) instead of the Euclidean distance, as all planners here do.
 //! - The motion executor cannot end at a given heading, so the robot turns once in place on
