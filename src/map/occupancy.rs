@@ -242,63 +242,56 @@ impl Occupancy {
         let origin = frame.origin.cast::<f64>();
         // Pass 1: the voxels that valid rays pass (and, from the column sweep, those where they end).
         let (window, walked, swept) = self.mark_passed(frame, origin, walk);
-        // Pass 2: hits, in ray order (which makes the obstacle boxes deterministic: a column's box
-        // depends on the order of its hits). Voxels below the obstacle layers and the rest are
-        // separate index ranges with no column data of their own (obstacle boxes are kept for the
-        // obstacle layers only), so two tasks can apply them, each walking all the rays in order.
-        let cells = grid.cells();
-        let (obstacle_start, obstacle_end) = (
-            self.obstacle_layers.start * cells,
-            self.obstacle_layers.end * cells,
-        );
-        let split =
-            if frame.dirs.len() >= PARALLEL_HITS_MIN_RAYS && rayon::current_num_threads() > 1 {
-                obstacle_start.min(self.voxels.len())
-            } else {
-                0
-            };
-        let (below, rest) = self.voxels.split_at_mut(split);
-        let hits = Hits {
-            frame,
-            origin,
-            passed: &self.passed,
-            swept,
-            inv_res: 1.0 / grid.res,
-            obstacle_voxels: obstacle_start..obstacle_end,
-        };
-        let updater = |voxels, first, obstacle_box| Updater {
-            voxels,
-            first,
-            obstacle_box,
+        // Borrow the arrays apart so that the hot loop keeps their pointers in registers.
+        let mut up = Updater {
+            voxels: &mut self.voxels,
+            column_stamp: &mut self.column_stamp,
+            obstacle_box: &mut self.obstacle_box,
             grid,
             frame: self.frame,
             rule: self.rule,
-            layer_len: cells,
+            layer_len: grid.cells(),
             known: 0,
             update: OccupancyUpdate::default(),
         };
-        let mut high = updater(rest, split, &mut self.obstacle_box[..]);
-        let low = if split > 0 {
-            let mut low = updater(below, 0, &mut []);
-            rayon::join(|| hits.apply(&mut low), || hits.apply(&mut high));
-            Some(low)
-        } else {
-            hits.apply(&mut high);
-            None
-        };
-        let mut update = OccupancyUpdate::default();
-        for up in low.into_iter().chain([high]) {
-            self.known += up.known;
-            update.newly_known.extend(up.update.newly_known);
-            update.grown_boxes.extend(up.update.grown_boxes);
-            // Each column once: pass 3 lists the columns it changes against the same stamps.
-            for column in up.update.changed_columns {
-                if self.column_stamp[column as usize] != self.frame {
-                    self.column_stamp[column as usize] = self.frame;
-                    update.changed_columns.push(column);
+        // Flat voxel indices are layer-major, so the obstacle layers are one index range.
+        let obstacle_voxels =
+            self.obstacle_layers.start * grid.cells()..self.obstacle_layers.end * grid.cells();
+        // Pass 2: hits, in ray order (which makes the obstacle boxes deterministic).
+        let inv_res = 1.0 / grid.res;
+        // Task `k` swept pixel columns k, k + tasks, ...: the task that holds ray `i`'s end voxel.
+        let (tasks, width) = (self.passed.len(), frame.width.max(1));
+        let (mut col, mut task) = (0, 0);
+        for (i, (dir, &range)) in frame.dirs.iter().zip(&frame.range).enumerate() {
+            if range.is_finite() {
+                let end = || origin + dir.cast::<f64>() * range as f64;
+                let v = match swept {
+                    true => self.passed[task].1.hits[i],
+                    false => NONE,
+                };
+                let v = match v {
+                    NONE => voxel_at_fast(&grid, inv_res, end()),
+                    v => Some(v as usize),
+                };
+                if let Some(v) = v {
+                    up.apply(v, up.rule.hit);
+                    if obstacle_voxels.contains(&v) {
+                        let end = end();
+                        up.record_hit(v, end.x as f32, end.y as f32);
+                    }
                 }
             }
+            col += 1;
+            task += 1;
+            if task == tasks {
+                task = 0;
+            }
+            if col == width {
+                (col, task) = (0, 0);
+            }
         }
+        self.known += up.known;
+        let mut update = up.update;
         // Pass 3: misses, to the voxels no hit stamped this frame.
         if let Some(window) = window {
             self.apply_misses(window, &mut update);
@@ -546,64 +539,10 @@ pub(crate) enum Walk {
     Columns,
 }
 
-/// Frames with at least this many rays apply their hits in two tasks (fewer: the handing over
-/// costs more than it saves).
-const PARALLEL_HITS_MIN_RAYS: usize = 65_536;
-
-/// What the hit pass reads: the frame, and the end voxels the column sweep found.
-struct Hits<'a> {
-    frame: &'a DepthFrame,
-    origin: Point3<f64>,
-    passed: &'a [(Vec<u64>, Scratch)],
-    swept: bool,
-    inv_res: f64,
-    obstacle_voxels: Range<usize>,
-}
-
-impl Hits<'_> {
-    /// Applies, in ray order, the hits of the rays whose end voxel `up` holds.
-    fn apply(&self, up: &mut Updater) {
-        let (frame, origin) = (self.frame, self.origin);
-        let held = up.first..up.first + up.voxels.len();
-        // Task `k` swept pixel columns k, k + tasks, ...: the task that holds ray `i`'s end voxel.
-        let (tasks, width) = (self.passed.len(), frame.width.max(1));
-        let (mut col, mut task) = (0, 0);
-        for (i, (dir, &range)) in frame.dirs.iter().zip(&frame.range).enumerate() {
-            if range.is_finite() {
-                let end = || origin + dir.cast::<f64>() * range as f64;
-                let v = match self.swept {
-                    true => self.passed[task].1.hits[i],
-                    false => NONE,
-                };
-                let v = match v {
-                    NONE => voxel_at_fast(&up.grid, self.inv_res, end()),
-                    v => Some(v as usize),
-                };
-                if let Some(v) = v.filter(|v| held.contains(v)) {
-                    up.apply(v, up.rule.hit);
-                    if self.obstacle_voxels.contains(&v) {
-                        let end = end();
-                        up.record_hit(v, end.x as f32, end.y as f32);
-                    }
-                }
-            }
-            col += 1;
-            task += 1;
-            if task == tasks {
-                task = 0;
-            }
-            if col == width {
-                (col, task) = (0, 0);
-            }
-        }
-    }
-}
-
-/// The mutable voxel arrays during one frame's hit pass: the voxels from flat index `first` on,
-/// and the obstacle boxes (empty if the obstacle layers are not among those voxels).
+/// The mutable voxel arrays during one frame's integration.
 struct Updater<'a> {
     voxels: &'a mut [Voxel],
-    first: usize,
+    column_stamp: &'a mut [u32],
     obstacle_box: &'a mut [ObstacleBox],
     grid: GridSpec,
     frame: u32,
@@ -618,7 +557,7 @@ impl Updater<'_> {
     /// changes.
     #[inline(always)]
     fn apply(&mut self, v: usize, delta: f32) {
-        let voxel = &mut self.voxels[v - self.first];
+        let voxel = &mut self.voxels[v];
         let stamp = voxel.stamp;
         if stamp == self.frame {
             return;
@@ -667,12 +606,14 @@ impl Updater<'_> {
         }
     }
 
-    /// Lists the column of voxel `v` as changed (once per frame: see `Occupancy::integrate_with`).
     #[cold]
     fn column_changed(&mut self, v: usize) {
         // The column of a flat voxel index (see `GridSpec::voxel_parts`).
         let column = v % self.layer_len;
-        self.update.changed_columns.push(column as u32);
+        if self.column_stamp[column] != self.frame {
+            self.column_stamp[column] = self.frame;
+            self.update.changed_columns.push(column as u32);
+        }
     }
 }
 
@@ -1251,8 +1192,7 @@ mod tests {
     /// poses (some inside walls or furniture, some with axis-aligned headings) in shipped scenes
     /// and floor plans, at 80 × 60 and 640 × 480, with 1 and 2 threads: per frame the same miss set
     /// (on a fresh grid) and the same update, and at the end the same voxels, stamps and boxes; and
-    /// two threads give one thread's updates and state (at 640 × 480 the hits are then applied in
-    /// two tasks).
+    /// two threads give one thread's updates and state.
     /// Columns given up and walked ray by ray: none of the 38,400 (the count is printed); rays
     /// walked on their own because they end within 1e-9 m of a voxel boundary: about 0.3 %.
     #[test]
