@@ -441,13 +441,31 @@ impl MeshRaster {
             tile_rows * TILE * w,
         );
         let [xs, ys, zs] = &mut sc.rays;
+        let jobs: Vec<BandJob> = (xs.chunks_mut(pixels).zip(ys.chunks_mut(pixels)))
+            .zip(zs.chunks_mut(pixels))
+            .zip(sc.depth.chunks_mut(pixels))
+            .zip((sc.row_max.chunks_mut(tiles)).zip(sc.tile_max.chunks_mut(tiles)))
+            .zip(dirs.chunks(image).zip(range.chunks_mut(image)))
+            .enumerate()
+            .map(
+                |(task, (((((x, y), z), depth), (row_max, max)), (dirs, range)))| BandJob {
+                    r0: task * tile_rows * TILE,
+                    rays: [x, y, z],
+                    depth,
+                    row_max,
+                    max,
+                    dirs,
+                    range,
+                },
+            )
+            .collect();
         // Each task copies its band's rays in and its depths out, so that those run in parallel too.
-        let fill = |(task, ((((x, y), z), depth), ((row_max, max), (src, out)))): BandParts| {
-            let r0 = task * tile_rows * TILE;
-            let rows = src.len() / w;
+        let fill = |job: BandJob| {
+            let ([x, y, z], depth, dirs) = (job.rays, job.depth, job.dirs);
+            let rows = dirs.len() / w;
             for (((x, y), z), src) in (x.chunks_exact_mut(stride).zip(y.chunks_exact_mut(stride)))
                 .zip(z.chunks_exact_mut(stride))
-                .zip(src.chunks_exact(w))
+                .zip(dirs.chunks_exact(w))
             {
                 for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
                     (*x, *y, *z) = (d.x, d.y, d.z);
@@ -461,48 +479,32 @@ impl MeshRaster {
                 row[w..].fill(0.0);
             }
             // Rows below the image in the last tile row count as padding.
-            for (k, m) in row_max.iter_mut().enumerate() {
+            for (k, m) in job.row_max.iter_mut().enumerate() {
                 let left = rows - k / across * TILE;
                 *m = std::array::from_fn(|r| if r < left { cam.max_range } else { 0.0 });
             }
-            max.fill(cam.max_range);
+            job.max.fill(cam.max_range);
             let band = Band {
-                r0,
+                r0: job.r0,
                 rays: [&*x, &*y, &*z],
                 depth: &mut *depth,
-                row_max,
-                max,
+                row_max: job.row_max,
+                max: job.max,
             };
             fill_band(list, order, stride, band);
-            for (out, z) in out.chunks_exact_mut(w).zip(depth.chunks_exact(stride)) {
+            for (out, z) in job
+                .range
+                .chunks_exact_mut(w)
+                .zip(depth.chunks_exact(stride))
+            {
                 out.copy_from_slice(&z[..w]);
             }
         };
         // On one thread, in this one: handing a frame to a pool's worker and waiting costs wakeups.
         if rayon::current_num_threads() > 1 {
-            (xs.par_chunks_mut(pixels).zip(ys.par_chunks_mut(pixels)))
-                .zip(zs.par_chunks_mut(pixels))
-                .zip(sc.depth.par_chunks_mut(pixels))
-                .zip(
-                    (sc.row_max
-                        .par_chunks_mut(tiles)
-                        .zip(sc.tile_max.par_chunks_mut(tiles)))
-                    .zip(dirs.par_chunks(image).zip(range.par_chunks_mut(image))),
-                )
-                .enumerate()
-                .for_each(fill);
+            jobs.into_par_iter().for_each(fill);
         } else {
-            (xs.chunks_mut(pixels).zip(ys.chunks_mut(pixels)))
-                .zip(zs.chunks_mut(pixels))
-                .zip(sc.depth.chunks_mut(pixels))
-                .zip(
-                    (sc.row_max
-                        .chunks_mut(tiles)
-                        .zip(sc.tile_max.chunks_mut(tiles)))
-                    .zip(dirs.chunks(image).zip(range.chunks_mut(image))),
-                )
-                .enumerate()
-                .for_each(fill);
+            jobs.into_iter().for_each(fill);
         }
     }
 
@@ -767,22 +769,18 @@ fn lanes_max(v: &[f32; TILE]) -> f32 {
     m[0].max(m[2]).max(m[1].max(m[3]))
 }
 
-/// One band of the z-buffer's rows, with its mutable parts (see `MeshRaster::render_ranges`):
-/// the rays' x, y and z arrays, the z-buffer, the tiles' row maxima and maxima, and the pixel rays
-/// and range rows of the image.
-type BandParts<'a> = (
-    usize,
-    (
-        (
-            ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
-            &'a mut [f32],
-        ),
-        (
-            (&'a mut [[f32; TILE]], &'a mut [f32]),
-            (&'a [Vector3<f32>], &'a mut [f32]),
-        ),
-    ),
-);
+/// One task's rows of a frame (see `MeshRaster::render_ranges`): the rays' coordinate arrays and
+/// the z-buffer (rows of `stride`), the tiles' row maxima and maxima, and the image's pixel rays and
+/// ranges (rows of the image's width).
+struct BandJob<'a> {
+    r0: usize,
+    rays: [&'a mut [f32]; 3],
+    depth: &'a mut [f32],
+    row_max: &'a mut [[f32; TILE]],
+    max: &'a mut [f32],
+    dirs: &'a [Vector3<f32>],
+    range: &'a mut [f32],
+}
 
 /// One task's share of the z-buffer: whole tile rows from image row `r0` (a multiple of [`TILE`]).
 struct Band<'a> {
