@@ -184,9 +184,9 @@ impl GainModel {
         let origin = Point3::new(p.x, p.y, self.mount_m);
         let cols: Vec<f64> = (0..self.n_az)
             .map(|a| {
+                let az = self.az_dirs[a];
                 (0..self.rows.len())
                     .map(|k| {
-                        let az = self.az_dirs[a];
                         let ray = self.cast_with(grid, &att, &band, origin, az, k, |_, _| {});
                         self.rows[k].2 * ray
                     })
@@ -427,8 +427,6 @@ impl VolumeViews {
 struct ChangedNear {
     /// Per row, `nx + 1` prefix counts.
     sums: Vec<u32>,
-    nx: usize,
-    ny: usize,
     /// Per row offset `0..=radius`, the disc's half-width in cells.
     half: Vec<i64>,
 }
@@ -457,25 +455,21 @@ impl ChangedNear {
                     .unwrap_or(0)
             })
             .collect();
-        ChangedNear { sums, nx, ny, half }
+        ChangedNear { sums, half }
     }
 
-    /// Whether a changed column lies within the disc around cell `i`.
+    /// Whether a changed column lies within the disc around cell `i` (of `grid`, the one the
+    /// table was built for).
     fn any_within(&self, grid: &GridSpec, i: usize) -> bool {
         let c = grid.cell(i);
-        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let (nx, ny) = (grid.nx as i64, grid.ny as i64);
         let (cx, cy) = (c.x as i64, c.y as i64);
-        self.half.iter().enumerate().any(|(dy, &hw)| {
-            let dy = dy as i64;
+        self.half.iter().zip(0i64..).any(|(&hw, dy)| {
             let x0 = (cx - hw).clamp(0, nx) as usize;
             let x1 = (cx + hw + 1).clamp(0, nx) as usize;
-            let rows = if dy == 0 {
-                [cy, cy]
-            } else {
-                [cy - dy, cy + dy]
-            };
-            rows.into_iter().filter(|y| (0..ny).contains(y)).any(|y| {
-                let row = &self.sums[y as usize * (self.nx + 1)..];
+            let rows: &[i64] = if dy == 0 { &[cy] } else { &[cy - dy, cy + dy] };
+            rows.iter().filter(|y| (0..ny).contains(*y)).any(|&y| {
+                let row = &self.sums[y as usize * (grid.nx + 1)..];
                 row[x1] > row[x0]
             })
         })

@@ -460,12 +460,12 @@ impl MeshRaster {
             )
             .collect();
         // Each task copies its band's rays in and its depths out, so that those run in parallel too.
-        let fill = |job: BandJob| {
-            let ([x, y, z], depth, dirs) = (job.rays, job.depth, job.dirs);
-            let rows = dirs.len() / w;
+        let fill = |mut job: BandJob| {
+            let rows = job.dirs.len() / w;
+            let [x, y, z] = &mut job.rays;
             for (((x, y), z), src) in (x.chunks_exact_mut(stride).zip(y.chunks_exact_mut(stride)))
                 .zip(z.chunks_exact_mut(stride))
-                .zip(dirs.chunks_exact(w))
+                .zip(job.dirs.chunks_exact(w))
             {
                 for (((d, x), y), z) in src.iter().zip(&mut *x).zip(&mut *y).zip(&mut *z) {
                     (*x, *y, *z) = (d.x, d.y, d.z);
@@ -474,7 +474,7 @@ impl MeshRaster {
                     v[w..].fill(0.0);
                 }
             }
-            for row in depth.chunks_exact_mut(stride) {
+            for row in job.depth.chunks_exact_mut(stride) {
                 row[..w].fill(cam.max_range);
                 row[w..].fill(0.0);
             }
@@ -484,18 +484,11 @@ impl MeshRaster {
                 *m = std::array::from_fn(|r| if r < left { cam.max_range } else { 0.0 });
             }
             job.max.fill(cam.max_range);
-            let band = Band {
-                r0: job.r0,
-                rays: [&*x, &*y, &*z],
-                depth: &mut *depth,
-                row_max: job.row_max,
-                max: job.max,
-            };
-            fill_band(list, order, stride, band);
+            fill_band(list, order, stride, &mut job);
             for (out, z) in job
                 .range
                 .chunks_exact_mut(w)
-                .zip(depth.chunks_exact(stride))
+                .zip(job.depth.chunks_exact(stride))
             {
                 out.copy_from_slice(&z[..w]);
             }
@@ -769,45 +762,42 @@ fn lanes_max(v: &[f32; TILE]) -> f32 {
     m[0].max(m[2]).max(m[1].max(m[3]))
 }
 
-/// One task's rows of a frame (see `MeshRaster::render_ranges`): the rays' coordinate arrays and
-/// the z-buffer (rows of `stride`), the tiles' row maxima and maxima, and the image's pixel rays and
-/// ranges (rows of the image's width).
+/// One task's share of a frame (see `MeshRaster::render_ranges`): whole tile rows from image row
+/// `r0` (a multiple of [`TILE`]).
 struct BandJob<'a> {
     r0: usize,
-    rays: [&'a mut [f32]; 3],
-    depth: &'a mut [f32],
-    row_max: &'a mut [[f32; TILE]],
-    max: &'a mut [f32],
-    dirs: &'a [Vector3<f32>],
-    range: &'a mut [f32],
-}
-
-/// One task's share of the z-buffer: whole tile rows from image row `r0` (a multiple of [`TILE`]).
-struct Band<'a> {
-    r0: usize,
     /// The rays' coordinates in the band's rows (rows of `stride`).
-    rays: [&'a [f32]; 3],
+    rays: [&'a mut [f32]; 3],
     /// The z-buffer's rows.
     depth: &'a mut [f32],
     /// Per tile of the band, the largest depth of each pixel row, and of the tile: kept exact as
     /// the depths change (one tile row's maximum costs a few lane-wise operations).
     row_max: &'a mut [[f32; TILE]],
     max: &'a mut [f32],
+    /// The image's pixel rays and ranges in the band's rows (rows of the image's width).
+    dirs: &'a [Vector3<f32>],
+    range: &'a mut [f32],
 }
 
 /// Fills `band` of the z-buffer (`stride` pixels a row, a multiple of [`TILE`]) with the triangles
-/// `list[order[..].1]`, in that order, for the band's pixel rays. A triangle whose near bound is at least every depth in a tile cannot win
-/// a pixel there (its test returns no less than the bound, and a pixel keeps only a strictly nearer
-/// hit), so that tile is skipped, and a tile row whose tiles are all skipped costs no spans. Within
-/// a triangle each pixel is tested once, so the order of its tiles does not matter.
-fn fill_band(list: &[Setup], order: &[(f32, u32)], stride: usize, band: Band) {
-    let Band {
+/// `list[order[..].1]`, in that order, for the band's pixel rays. A triangle whose near bound is at
+/// least every depth in a tile cannot win a pixel there (its test returns no less than the bound,
+/// and a pixel keeps only a strictly nearer hit), so that tile is skipped, and a tile row whose
+/// tiles are all skipped costs no spans. Within a triangle each pixel is tested once, so the order
+/// of its tiles does not matter.
+fn fill_band(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &mut BandJob) {
+    let BandJob {
         r0,
         rays,
         depth,
         row_max,
         max,
+        ..
     } = band;
+    // Plain slices, so that the hot loop does not reload them through the job.
+    let (r0, rays, depth): (usize, [&[f32]; 3], &mut [f32]) =
+        (*r0, rays.each_ref().map(|r| &**r), depth);
+    let (row_max, max): (&mut [[f32; TILE]], &mut [f32]) = (row_max, max);
     let across = stride / TILE;
     let r1 = r0 + depth.len() / stride; // exclusive
     for &(_, i) in order {
