@@ -92,6 +92,12 @@ impl Mode {
         still_open: impl Fn(&Visit) -> bool,
     ) -> Option<(Visit, bool)> {
         match self {
+            // An action without a goal (an escape, a volume view) that could not move the robot
+            // calls for the same look as a goal's attempt.
+            Mode::Idle if !reached && !moved => {
+                *self = Mode::Blocked;
+                None
+            }
             Mode::Idle | Mode::Blocked => None,
             Mode::Driving { goal, interrupted } if *interrupted => {
                 *interrupted = false;
@@ -164,5 +170,13 @@ mod tests {
         assert!(matches!(m, Mode::Blocked) && m.goal().is_none());
         assert!(m.unblock());
         assert!(matches!(m, Mode::Idle));
+        // An action without a goal (an escape, a volume view) that could not move: blocked too;
+        // one that moved, or ended, changes nothing.
+        assert_eq!(m.action_ended(false, true, |_| true), None);
+        assert!(matches!(m, Mode::Idle));
+        assert_eq!(m.action_ended(true, false, |_| true), None);
+        assert!(matches!(m, Mode::Idle));
+        assert_eq!(m.action_ended(false, false, |_| true), None);
+        assert!(matches!(m, Mode::Blocked) && m.unblock());
     }
 }
