@@ -45,7 +45,7 @@
 //!   `stuck`.
 //! - `thp.look_when_blocked` (on): an attempt that could not move the robot at all (the motion guard
 //!   refused every move, typically in a doorway beside never-seen cells) is followed by a look around
-//!   before the next goal (`looks_when_blocked`). Without it the robot tried goal after goal from the
+//!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not. Without it the robot tried goal after goal from the
 //!   same spot until the run ended `stuck`.
 //! - `thp.finish_group_first` (off): see [`tour`].
 //! - `volume_views.enabled` (on, shared with GREEDY): before `Complete`, the robot drives to each
