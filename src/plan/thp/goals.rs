@@ -16,6 +16,9 @@ pub(super) enum Choice {
 /// margin), metres.
 pub(super) const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
 
+/// How far a trapped robot looks for a cell it may enter (see `Thp::way_out`), metres.
+const WAY_OUT_M: f64 = 2.0;
+
 /// Escapes toward one target cell before the frontier there is given up.
 pub(super) const MAX_ESCAPES: u32 = 2;
 
@@ -78,7 +81,7 @@ impl Thp {
         let robot = ctx.pose.position();
         let Some(start) = plan::search_source(ctx.map, &ctx.cfg.search, robot, self.radius_m)
         else {
-            return Ok(Choice::Act(Action::LookAround));
+            return Ok(self.way_out(ctx));
         };
         // The step costs and the robot's distance field live in buffers kept between steps.
         let mut costs = std::mem::take(&mut self.step_costs);
@@ -277,6 +280,50 @@ impl Thp {
             .to_vec();
         self.set_goal(ctx, visit, Some(first), &cells);
         Ok(Choice::Drive)
+    }
+
+    /// For a robot trapped where no cell within two robot radii may be entered (a back-off took it
+    /// into a pocket, or obstacles seen since inflated the cells around it): the escape search
+    /// ([`plan::escape_path`]) to the nearest enterable cell within [`WAY_OUT_M`], counted as an
+    /// escape; a look around if there is none. Only ever looking around there kept the robot turning
+    /// in place until the run ended `stuck` (`plan_18b39b374f`, seed 2).
+    fn way_out(&mut self, ctx: &mut PlanContext) -> Choice {
+        let grid = *ctx.map.grid();
+        let robot = ctx.pose.position();
+        let Some(here) = grid.cell_of(robot) else {
+            return Choice::Act(Action::LookAround);
+        };
+        let (map, search_cfg) = (ctx.map, &ctx.cfg.search);
+        let stay = ctx.search.distance_field(
+            &grid,
+            |i| plan::step_cost(map, search_cfg, robot, i),
+            grid.index(here),
+            f32::INFINITY,
+        );
+        let reach = (WAY_OUT_M / grid.res).ceil() as i32;
+        let targets: Vec<usize> = (-reach..=reach)
+            .flat_map(|dy| (-reach..=reach).map(move |dx| (dx, dy)))
+            .filter_map(|(dx, dy)| {
+                grid.checked_index(crate::grid::Cell::new(here.x + dx, here.y + dy))
+            })
+            .filter(|&i| plan::step_cost(map, search_cfg, robot, i).is_some())
+            .collect();
+        let Some(path) = plan::escape_path(
+            ctx,
+            grid.index(here),
+            &stay,
+            &targets,
+            ESCAPE_CLEAR_MARGIN_M,
+        ) else {
+            return Choice::Act(Action::LookAround);
+        };
+        self.stats.escapes.add(1.0);
+        self.ledger.kind = GoalKind::OutsideTour;
+        self.mode.stop();
+        Choice::Act(Action::Follow {
+            path,
+            look_on_arrival: false,
+        })
     }
 
     /// Steps back from a frontier in the camera's blind zone to a cell from which the camera sees the
