@@ -73,8 +73,10 @@ const LEFT_FRONTIERS_BEFORE: [(&str, u64); 3] = [
 fn greedy_leaves_no_observable_frontier_where_the_guard_stopped_it_short() {
     let mut failures = Vec::new();
     for (name, seed) in LEFT_FRONTIERS_BEFORE {
-        let mut cfg = Config::default();
-        cfg.seed = seed;
+        let mut cfg = Config {
+            seed,
+            ..Config::default()
+        };
         cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("scenes/floorplans")
