@@ -184,8 +184,9 @@ pub fn search_source(
 /// (`reachable`) hold no goal, because the robot entered through unknown space (its blind zone) a
 /// door that the obstacles seen since have inflated shut. The escape search also enters inflated
 /// cells that are physically clear (at least `robot.radius_m + clear_margin_m` from every known
-/// obstacle surface), at three times the cost, and leads to the nearest of `targets` (the open
-/// frontier cells) outside the pocket. Returns world points from the robot.
+/// obstacle surface), at three times the cost, and leads to the nearest of `targets` outside the
+/// pocket: the open frontier cells, or, for a robot with no enterable cell around it at all, the
+/// enterable cells nearby (THP's `way_out`). Returns world points from the robot.
 pub fn escape_path(
     ctx: &mut PlanContext,
     source: usize,
