@@ -8,9 +8,10 @@
 //! unobservable and skipped from then on (THP §3.4: "done after the robot has looked at it"). A look
 //! counts only for the cells beyond the blind zone (`search.near_unknown_radius_m`) around the robot.
 //! A second approach that the motion guard stops short within the blind zone (beside never-seen
-//! floor it cannot get any nearer) counts as the look from on top, not as a failed attempt: on 33
-//! real plans × 3 starts, counting it as a failure ended 20 GREEDY and 24 THP runs `complete` with
-//! an observable frontier left, against 14 and 11 now (BENCHMARKS.md).
+//! floor it cannot get any nearer) counts as the look from on top, not as a failed attempt. With
+//! that and the wider sighted viewpoint ([`sighted_viewpoint`]), runs on 33 real plans × 3 starts
+//! that ended `complete` with an observable frontier left went from 20 to 14 (GREEDY) and from 24
+//! to 11 (THP) (BENCHMARKS.md, "Frontiers given up too early").
 
 use super::search::DistanceField;
 use crate::config::CameraConfig;
@@ -169,11 +170,11 @@ impl FrontierVisits {
         // guard keeps the robot's disc off never-seen cells, so beside unseen floor it stops short,
         // blocked; stopped within the blind zone, it stands where a look from on top would, and the
         // attempt counts as that look (the cell next needs a sighted viewpoint, not another try).
-        let aim_p = grid.center(grid.cell(visit.aim));
         let reached = reached
             || (!visit.near_view
                 && self.approached[visit.aim]
-                && (aim_p - robot).norm_squared() <= blind_zone_m * blind_zone_m);
+                && (grid.center(grid.cell(visit.aim)) - robot).norm_squared()
+                    <= blind_zone_m * blind_zone_m);
         if reached {
             if visit.near_view {
                 // Given up: the cells this look could see (the missing voxel beside them was in
@@ -334,34 +335,37 @@ fn first_sighted(
         .find(|&v| targets.iter().any(|&t| camera_sees(map, v, t, camera)))
 }
 
-/// The unknown voxels above the floor layer of each Unknown 4-neighbour column of `cell`, lowest
-/// first per column.
-fn unknown_voxels_beside(map: &Map, cell: usize) -> impl Iterator<Item = Vec<usize>> + '_ {
-    let occ = map.occupancy();
-    let grid = occ.grid();
+/// The Unknown 4-neighbour columns of `cell`.
+fn unknown_columns_beside(map: &Map, cell: usize) -> impl Iterator<Item = usize> + '_ {
+    let grid = map.grid();
     let c = grid.cell(cell);
     crate::grid::NEIGHBOURS_8[..4]
         .iter()
         .filter_map(move |&(dx, dy)| grid.checked_index(Cell::new(c.x + dx, c.y + dy)))
         .filter(|&j| map.is_unknown(j))
-        .map(move |j| {
-            (1..grid.nz)
-                .map(|iz| grid.voxel_index(grid.cell(j), iz))
-                .filter(|&v| occ.state(v) == VoxelState::Unknown)
-                .collect()
-        })
+}
+
+/// The unknown voxels of column `j` above the floor layer, lowest first.
+fn unknown_voxels_of(map: &Map, j: usize) -> impl Iterator<Item = usize> + '_ {
+    let occ = map.occupancy();
+    let grid = occ.grid();
+    (1..grid.nz)
+        .map(move |iz| grid.voxel_index(grid.cell(j), iz))
+        .filter(|&v| occ.state(v) == VoxelState::Unknown)
 }
 
 /// The lowest unknown voxel above the floor layer of each Unknown 4-neighbour column of `cell`.
 fn lowest_unknown_beside(map: &Map, cell: usize) -> Vec<usize> {
-    unknown_voxels_beside(map, cell)
-        .filter_map(|column| column.first().copied())
+    unknown_columns_beside(map, cell)
+        .filter_map(|j| unknown_voxels_of(map, j).next())
         .collect()
 }
 
 /// Every unknown voxel above the floor layer of each Unknown 4-neighbour column of `cell`.
 fn unknown_beside(map: &Map, cell: usize) -> Vec<usize> {
-    unknown_voxels_beside(map, cell).flatten().collect()
+    unknown_columns_beside(map, cell)
+        .flat_map(|j| unknown_voxels_of(map, j))
+        .collect()
 }
 
 /// Whether the camera, standing at cell `from`, can see voxel `target`: its centre lies within the

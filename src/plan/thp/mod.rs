@@ -45,8 +45,8 @@
 //!   `stuck`.
 //! - `thp.look_when_blocked` (on): an attempt that could not move the robot at all (the motion guard
 //!   refused every move, typically in a doorway beside never-seen cells) is followed by a look around
-//!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not. Without it the robot tried goal after goal from the
-//!   same spot until the run ended `stuck`.
+//!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not.
+//!   Without it the robot tried goal after goal from the same spot until the run ended `stuck`.
 //! - `thp.finish_group_first` (off): see [`tour`].
 //! - `volume_views.enabled` (on, shared with GREEDY): before `Complete`, the robot drives to each
 //!   place from which the camera would still see unknown volume that no frontier shows (the top of
