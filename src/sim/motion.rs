@@ -194,7 +194,15 @@ impl MotionExecutor {
                 // two hazards with clearance to spare: along the gap it stays equal, and each step
                 // of the turn's arc lost a fraction of a millimetre (`plan_6ede154d56`, THP).
                 let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
-                if next_clearance < clearance && next_clearance < self.guard_clearance {
+                if next_clearance < clearance - CLEARANCE_TOLERANCE_M
+                    && next_clearance < self.guard_clearance - CLEARANCE_TOLERANCE_M
+                {
+                    // The arc of turning while moving loses clearance: finish the turn in place,
+                    // onto the heading itself, so that the next step goes straight along it. A
+                    // proportional turn only approaches the heading, and a robot standing at the
+                    // guard's clearance in a gap (`plan_6ede154d56`, THP, seed 2) lost a fraction
+                    // of a millimetre on every step, was refused every step, and never moved again.
+                    let w = (err / self.dt).clamp(-self.max_turn, self.max_turn);
                     return (Command { v: 0.0, w }, MotionStatus::Busy);
                 }
                 (Command { v, w }, MotionStatus::Busy)
@@ -210,6 +218,10 @@ const ESCAPE_PROBE_M: f64 = 0.05;
 
 /// Clearances within this of the best count as equally good when backing off, metres.
 const ESCAPE_TIE_M: f64 = 1e-3;
+/// Clearances that differ by less than this count as equal when backing off, metres (a micrometre):
+/// the rounding of the obstacle boxes' f32 corners and of a move along a gap's edge, which would
+/// otherwise read as a step closer to the hazard.
+const CLEARANCE_TOLERANCE_M: f64 = 1e-6;
 
 /// The heading in which the clearance grows most over a short step from `here`, among those in
 /// which it stays at least `least`; of equally good ones, the nearest to `back` (the way the robot
@@ -225,7 +237,7 @@ fn escape_heading(map: &Map, here: Point2<f64>, least: f64, max_m: f64, back: f6
             let probe = here + ESCAPE_PROBE_M * Vector2::new(heading.cos(), heading.sin());
             (obstacle_clearance(map, probe, max_m), heading)
         })
-        .filter(|&(c, _)| c >= least)
+        .filter(|&(c, _)| c >= least - CLEARANCE_TOLERANCE_M)
         .collect();
     let best = probes.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     probes
@@ -553,6 +565,36 @@ mod tests {
         );
         exec.start(&Action::Follow {
             path: vec![pose.position(), Point2::new(1.0, 0.1)],
+            look_on_arrival: false,
+        });
+        let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 200);
+        assert_eq!(status, MotionStatus::Blocked);
+        let end = obstacle_clearance(&map, pose.position(), max_m);
+        assert!(
+            end >= exec.free_clearance,
+            "still in the gap at {pose:?}: {end}"
+        );
+    }
+
+    /// A robot standing in a gap at exactly the guard's clearance from the lower box, sent toward
+    /// it: every move of the back-off's turning arc would come a fraction of a millimetre closer,
+    /// so it must finish the turn in place and then leave along the gap (it used to stay put until
+    /// the back-off gave up, and the run ended `stuck`).
+    #[test]
+    fn backing_off_at_exactly_the_guard_clearance_leaves_the_gap() {
+        let cfg = Config::default();
+        let (map, bvh) = gap_between_boxes(&cfg, 0.21, 0.77);
+        let params = MotionParams::from(&cfg);
+        let mut exec = MotionExecutor::new(&params);
+        let max_m = cfg.motion.slow_clearance_m.get();
+        let probe = Point2::new(1.0, 0.48);
+        let lower = map.nearest_hazard(probe, max_m).expect("the lower box");
+        assert!(lower.y < probe.y, "{lower:?}");
+        let pose = Pose2::new(lower.x, lower.y + exec.guard_clearance, -PI / 2.0);
+        let start = obstacle_clearance(&map, pose.position(), max_m);
+        assert!((start - exec.guard_clearance).abs() < 1e-6, "{start}");
+        exec.start(&Action::Follow {
+            path: vec![pose.position(), Point2::new(pose.x, 0.1)],
             look_on_arrival: false,
         });
         let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 200);
