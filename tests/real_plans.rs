@@ -98,3 +98,27 @@ fn greedy_leaves_no_observable_frontier_where_the_guard_stopped_it_short() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The random start (seed 2) of `plan_6ede154d56` where THP ended `stuck`: the robot stopped in a
+/// 0.557 m gap at exactly the guard's clearance from one side, and the back-off, turning onto its
+/// heading while moving, lost a fraction of a millimetre on every step and was refused every step.
+/// THP must end `complete` there, with no collision.
+#[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
+fn thp_leaves_the_gap_it_once_stayed_stuck_in() {
+    let mut cfg = Config {
+        seed: 2,
+        ..Config::default()
+    };
+    cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/floorplans/plan_6ede154d56.obj");
+    let r = common::explore(&path, &cfg, PlannerKind::Thp);
+    assert_eq!(
+        (r.termination, r.collisions),
+        (Termination::Complete, 0),
+        "ended {} at {:.3} after {:.1} m",
+        r.termination.as_str(),
+        r.completeness,
+        r.path_length_m
+    );
+}
