@@ -563,13 +563,26 @@ mod tests {
             start > exec.guard_clearance && start < exec.free_clearance,
             "{start}"
         );
+        assert_backs_out_of_the_gap(&cfg, &mut exec, &map, &bvh, pose);
+    }
+
+    /// Sends the robot at `pose` straight toward the gap's lower box: the guard refuses, and the
+    /// back-off must carry it out of the gap (clearance back to the inflation radius) before it
+    /// reports `Blocked`.
+    fn assert_backs_out_of_the_gap(
+        cfg: &Config,
+        exec: &mut MotionExecutor,
+        map: &Map,
+        bvh: &MeshBvh,
+        pose: Pose2,
+    ) {
         exec.start(&Action::Follow {
-            path: vec![pose.position(), Point2::new(1.0, 0.1)],
+            path: vec![pose.position(), Point2::new(pose.x, 0.1)],
             look_on_arrival: false,
         });
-        let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 200);
+        let (pose, status) = drive(cfg, exec, map, bvh, pose, 200);
         assert_eq!(status, MotionStatus::Blocked);
-        let end = obstacle_clearance(&map, pose.position(), max_m);
+        let end = obstacle_clearance(map, pose.position(), cfg.motion.slow_clearance_m.get());
         assert!(
             end >= exec.free_clearance,
             "still in the gap at {pose:?}: {end}"
@@ -593,16 +606,6 @@ mod tests {
         let pose = Pose2::new(lower.x, lower.y + exec.guard_clearance, -PI / 2.0);
         let start = obstacle_clearance(&map, pose.position(), max_m);
         assert!((start - exec.guard_clearance).abs() < 1e-6, "{start}");
-        exec.start(&Action::Follow {
-            path: vec![pose.position(), Point2::new(pose.x, 0.1)],
-            look_on_arrival: false,
-        });
-        let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 200);
-        assert_eq!(status, MotionStatus::Blocked);
-        let end = obstacle_clearance(&map, pose.position(), max_m);
-        assert!(
-            end >= exec.free_clearance,
-            "still in the gap at {pose:?}: {end}"
-        );
+        assert_backs_out_of_the_gap(&cfg, &mut exec, &map, &bvh, pose);
     }
 }
