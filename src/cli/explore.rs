@@ -171,7 +171,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     for w in &scene.warnings {
         note!("warning: {w}");
     }
-    let world = World::with_cache(&scene, &cfg, spawn, &ObservableCache::user())?;
+    // Computing the observable set can take minutes at full camera resolution: say so where the
+    // progress bar would show.
+    let cache = ObservableCache::user().announcing(!args.quiet && std::io::stderr().is_terminal());
+    let world = World::with_cache(&scene, &cfg, spawn, &cache)?;
     if let Some(w) = world.observable_source.warning() {
         note!("{w}");
     }

@@ -96,7 +96,9 @@ impl SceneArgs {
     fn load(&self) -> Result<(scene::Scene, World)> {
         let cfg = self.config.load()?;
         let scene = scene::load(&self.scene, &cfg.scene)?;
-        let world = World::with_cache(&scene, &cfg, self.spawn, &ObservableCache::user())?;
+        let cache = ObservableCache::user()
+            .announcing(std::io::IsTerminal::is_terminal(&std::io::stderr()));
+        let world = World::with_cache(&scene, &cfg, self.spawn, &cache)?;
         if let Some(w) = world.observable_source.warning() {
             note!("{w}");
         }
