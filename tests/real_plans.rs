@@ -7,12 +7,29 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use tensorscout::plan::PlannerKind;
 use tensorscout::sim::Termination;
 use tensorscout::Config;
 
 const PLANS: [&str; 2] = ["plan_2b11efc201", "plan_ca76724070"];
+
+/// The mesh of the real plan `name` in `scenes/floorplans/`.
+fn plan(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/floorplans")
+        .join(format!("{name}.obj"))
+}
+
+/// The default config, starting at the random pose drawn from `seed`.
+fn random_start(seed: u64) -> Config {
+    let mut cfg = Config {
+        seed,
+        ..Config::default()
+    };
+    cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
+    cfg
+}
 
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
@@ -20,9 +37,7 @@ fn frontier_planners_enter_every_room_behind_narrow_doors() {
     let cfg = Config::default();
     let mut failures = Vec::new();
     for name in PLANS {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes/floorplans")
-            .join(format!("{name}.obj"));
+        let path = plan(name);
         for planner in [PlannerKind::Greedy, PlannerKind::Thp, PlannerKind::Nbv] {
             let r = &common::explore(&path, &cfg, planner);
             if r.termination != Termination::Complete || r.collisions != 0 || r.completeness < 0.90
@@ -73,15 +88,7 @@ const LEFT_FRONTIERS_BEFORE: [(&str, u64); 3] = [
 fn greedy_leaves_no_observable_frontier_where_the_guard_stopped_it_short() {
     let mut failures = Vec::new();
     for (name, seed) in LEFT_FRONTIERS_BEFORE {
-        let mut cfg = Config {
-            seed,
-            ..Config::default()
-        };
-        cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes/floorplans")
-            .join(format!("{name}.obj"));
-        let r = common::explore(&path, &cfg, PlannerKind::Greedy);
+        let r = common::explore(&plan(name), &random_start(seed), PlannerKind::Greedy);
         if r.termination != Termination::Complete || r.frontiers_left != Some(0) {
             let groups: Vec<String> = r
                 .frontier_groups_left
@@ -106,13 +113,7 @@ fn greedy_leaves_no_observable_frontier_where_the_guard_stopped_it_short() {
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
 fn thp_leaves_the_gap_it_once_stayed_stuck_in() {
-    let mut cfg = Config {
-        seed: 2,
-        ..Config::default()
-    };
-    cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/floorplans/plan_6ede154d56.obj");
-    let r = common::explore(&path, &cfg, PlannerKind::Thp);
+    let r = common::explore(&plan("plan_6ede154d56"), &random_start(2), PlannerKind::Thp);
     assert_eq!(
         (r.termination, r.collisions),
         (Termination::Complete, 0),

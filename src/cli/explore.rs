@@ -171,9 +171,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     for w in &scene.warnings {
         note!("warning: {w}");
     }
-    // Computing the observable set can take minutes at full camera resolution: say so where the
-    // progress bar would show.
-    let cache = ObservableCache::user().announcing(!args.quiet && std::io::stderr().is_terminal());
+    // Where the progress bar shows; there, too, the line that the observable set is being computed,
+    // which can take minutes at full camera resolution.
+    let interactive = !args.quiet && std::io::stderr().is_terminal();
+    let cache = ObservableCache::user().announcing(interactive);
     let world = World::with_cache(&scene, &cfg, spawn, &cache)?;
     if let Some(w) = world.observable_source.warning() {
         note!("{w}");
@@ -197,7 +198,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         }
         None => None,
     };
-    let mut progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+    let mut progress = interactive.then(|| {
         let bar = ProgressBar::new(cfg.sim.budget_s.get() as u64);
         bar.set_style(
             ProgressStyle::with_template(
