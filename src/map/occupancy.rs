@@ -321,11 +321,7 @@ impl Occupancy {
         let grid = self.grid;
         let n = frame.dirs.len().min(frame.range.len());
         // The columns any ray can reach: within the longest ray of the origin (plus a cell for rounding).
-        let reach = frame
-            .range
-            .iter()
-            .filter(|r| r.is_finite())
-            .fold(frame.max_range, |a, &r| a.max(r)) as f64;
+        let reach = longest_reach(frame) as f64;
         let to_cell = |v: f64, o: f64, len: usize| -> i64 {
             (((v - o) / grid.res).floor() as i64).clamp(-1, len as i64)
         };
@@ -517,6 +513,29 @@ impl Occupancy {
         }
         self.known += known;
     }
+}
+
+/// The larger of `frame.max_range` and the frame's longest finite range: `f32::max` over them all.
+///
+/// The non-negative floats below infinity order as their bits do, so the longest non-negative range
+/// is an integer maximum, which the compiler vectorises (the float fold took 0.4 ms a frame at
+/// 640 × 480, in the one thread that integrates). A negative range never exceeds a non-negative
+/// one; with no positive range, the float fold gives the answer.
+fn longest_reach(frame: &DepthFrame) -> f32 {
+    const INFINITY_BITS: u32 = 0x7f80_0000;
+    let bits = (frame.range.iter()).map(|r| r.to_bits()).fold(0, |a, b| {
+        if b < INFINITY_BITS {
+            a.max(b)
+        } else {
+            a
+        }
+    });
+    if bits == 0 {
+        return (frame.range.iter())
+            .filter(|r| r.is_finite())
+            .fold(frame.max_range, |a, &r| a.max(r));
+    }
+    frame.max_range.max(f32::from_bits(bits))
 }
 
 /// The floor cells `x0..=x1` × `y0..=y1` that a frame's rays can reach.
@@ -846,6 +865,45 @@ mod tests {
             width: rays.len(),
             height: 1,
             max_range: 5.0,
+        }
+    }
+
+    #[test]
+    fn longest_reach_is_the_float_fold() {
+        let fold = |f: &DepthFrame| {
+            (f.range.iter())
+                .filter(|r| r.is_finite())
+                .fold(f.max_range, |a, &r| a.max(r))
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let specials = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -0.0,
+            0.0,
+            -1.5,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+        ];
+        for case in 0..2000 {
+            let n = rng.gen_range(0..12);
+            let range = (0..n)
+                .map(|_| match rng.gen_range(0..3) {
+                    0 => specials[rng.gen_range(0..specials.len())],
+                    _ => rng.gen_range(-1.0f32..9.0),
+                })
+                .collect::<Vec<_>>();
+            let mut f = frame([0.0; 3], &[]);
+            f.range = range;
+            f.max_range = [5.0, 0.0, -2.0, f32::NAN][case % 4];
+            let (want, got) = (fold(&f), longest_reach(&f));
+            assert!(
+                want.to_bits() == got.to_bits(),
+                "{:?} (max {}): {want} vs {got}",
+                f.range,
+                f.max_range
+            );
         }
     }
 
