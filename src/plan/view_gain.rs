@@ -140,6 +140,9 @@ impl GainModel {
         let (s_el, c_el, _) = self.rows[k];
         let dir = Vector3::new(c_el * az_cos, c_el * az_sin, s_el);
         let layer_len = grid.cells();
+        // The band as flat voxel indices (a layer is a contiguous run of them): a range test per
+        // unknown voxel rather than an integer division.
+        let band_v = band.start * layer_len..band.end * layer_len;
         let inv_l = 1.0 / self.visibility_length_m;
         // An unknown voxel has unoccupancy 0.5.
         let ln_half_per_m = 0.5f64.ln() * inv_l;
@@ -150,22 +153,24 @@ impl GainModel {
             let seg = t_out - t_in;
             visit(v % layer_len, ln_vis);
             let a = att(v);
-            if a.is_nan() {
-                // Unknown.
+            // Free first (most voxels); ±0 (never in the table) would leave `ln_vis` as it is in
+            // either known branch.
+            if a < 0.0 {
+                // Free: `a` = ln(1 − p) per visibility length.
+                ln_vis += a * seg * inv_l;
+            } else if a >= 0.0 {
+                // Occupied: `a` = −ln(1 − p).
+                ln_vis -= a;
+            } else {
+                // Unknown (NaN).
                 let t_from = t_in.max(self.min_range_m);
-                if t_out > t_from && band.contains(&(v / layer_len)) {
+                if t_out > t_from && band_v.contains(&v) {
                     // Midpoint rule over the part of the voxel beyond the minimum range.
                     let t = 0.5 * (t_from + t_out);
                     let vis_mid = (ln_vis + ln_half_per_m * (t - t_in)).exp();
                     sum += 0.5 * vis_mid * t * t * (t_out - t_from);
                 }
                 ln_vis += ln_half_per_m * seg;
-            } else if a.is_sign_negative() {
-                // Free: `a` = ln(1 − p) per visibility length.
-                ln_vis += a * seg * inv_l;
-            } else {
-                // Occupied: `a` = −ln(1 − p).
-                ln_vis -= a;
             }
             ln_vis >= ln_min
         });
