@@ -39,7 +39,7 @@
 //! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
-use super::occupancy::floor_i64;
+use super::occupancy::{floor_i64, voxel_at_fast};
 use crate::grid::GridSpec;
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
@@ -53,6 +53,10 @@ pub(super) struct Ambiguous;
 
 /// No ray (end of a linked list); no voxel.
 pub(super) const NONE: u32 = u32::MAX;
+
+/// In [`Scratch::hits`]: the ray's hit lies in no voxel of the grid (most often a floor hit whose
+/// point rounded under z = 0, or a wall hit above the grid's top).
+pub(super) const OUTSIDE: u32 = u32::MAX - 1;
 
 /// The frame-wide part of the sweep.
 pub(super) struct Sweep<'a> {
@@ -121,8 +125,9 @@ pub(super) struct Scratch {
     /// one.
     pub marks: Vec<(usize, u64)>,
     pub singles: Vec<usize>,
-    /// Per ray of the frame (those of the swept columns written), the voxel where it ends, or
-    /// [`NONE`] where the sweep did not find it: the hit pass then need not find it again.
+    /// Per ray of the frame (those of the swept columns written): the voxel where it hit, or
+    /// [`OUTSIDE`], so that the hit pass, which runs in one thread, need not find it; [`NONE`] for
+    /// rays without a hit (and for the rays of a column the sweep gave up).
     pub hits: Vec<u32>,
 }
 
@@ -153,7 +158,11 @@ impl<'a> Sweep<'a> {
         origin: Point3<f64>,
     ) -> Option<Sweep<'a>> {
         let n = frame.width.checked_mul(frame.height)?;
-        if !(1..=64).contains(&grid.nz) || n != frame.dirs.len() || n != frame.range.len() {
+        if !(1..=64).contains(&grid.nz)
+            || grid.voxels() >= OUTSIDE as usize
+            || n != frame.dirs.len()
+            || n != frame.range.len()
+        {
             return None;
         }
         let res = grid.res;
@@ -239,6 +248,7 @@ impl<'a> Sweep<'a> {
         for row in 0..f.height {
             let i = row * f.width + col;
             s.hits[i] = NONE;
+            let range = f.range[i];
             let Some(t_end) = f.free_length(i) else {
                 continue;
             };
@@ -250,6 +260,21 @@ impl<'a> Sweep<'a> {
                 o[1] + d[1] * t_end,
                 o[2] + d[2] * t_end,
             ];
+            // The hit's voxel where the sweep does not tell it below: the hit pass's own lookup of
+            // the same point (its `origin + dir * range`), save that a point TIE_M below the
+            // floor or above the top is outside by any rounding of the lookup's floors (most
+            // of these lookups: floor hits rounded under z = 0).
+            let hit_point = Point3::from(end);
+            let is_hit = range.is_finite();
+            let look_up = || {
+                if hit_point.z < -TIE_M || hit_point.z > self.faces[2].1 + TIE_M {
+                    return OUTSIDE;
+                }
+                match voxel_at_fast(grid, self.inv_res, hit_point) {
+                    Some(v) => v as u32,
+                    None => OUTSIDE,
+                }
+            };
             // The clip (`clip_to_grid_inv`), with the origin inside the grid: it starts the ray at
             // 0, and only an axis along which the end is not well inside the box can cut it (the
             // quotients are off by ulps, the margin is 1e-6 m), so only such axes take a division.
@@ -268,6 +293,9 @@ impl<'a> Sweep<'a> {
             }
             // (Also NaN.)
             if t1 <= 0.0 || t1.is_nan() {
+                if is_hit {
+                    s.hits[i] = look_up();
+                }
                 continue; // the walk visits nothing
             }
             if !inside {
@@ -303,6 +331,9 @@ impl<'a> Sweep<'a> {
                 self.cell_along(end[1], self.lo[1], grid.ny),
                 self.layer(end[2]),
             ) else {
+                if is_hit {
+                    s.hits[i] = look_up();
+                }
                 s.singles.push(i);
                 continue;
             };
@@ -315,8 +346,11 @@ impl<'a> Sweep<'a> {
                     && (0..2).all(|a| end[a] > self.inner[a].0 && end[a] < self.inner[a].1)
                     && end[2] >= 0.0
                     && end[2] < self.inner[2].1);
-            if kept && f.range[i].is_finite() {
-                s.hits[i] = iz as u32 * self.cells + end_cell;
+            if is_hit {
+                s.hits[i] = match kept {
+                    true => iz as u32 * self.cells + end_cell,
+                    false => look_up(),
+                };
             }
             // One line crossed per step of the path.
             let j = (ix - self.cell[0]).unsigned_abs() + (iy - self.cell[1]).unsigned_abs();

@@ -1,6 +1,6 @@
 //! Dense 3D occupancy voxels with OctoMap-style clamped log-odds, updated one depth frame at a time.
 
-use super::column_sweep::{Scratch, Sweep, NONE};
+use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE};
 use crate::config::MapConfig;
 use crate::grid::{Cell, GridSpec};
 use crate::sensor::DepthFrame;
@@ -271,6 +271,7 @@ impl Occupancy {
                 };
                 let v = match v {
                     NONE => voxel_at_fast(&grid, inv_res, end()),
+                    OUTSIDE => None,
                     v => Some(v as usize),
                 };
                 if let Some(v) = v {
@@ -658,7 +659,7 @@ fn checked_voxel(grid: &GridSpec, ix: i64, iy: i64, iz: i64) -> Option<usize> {
 /// where that cannot change a floor: the two quotients differ by a few ulps, so a point more than
 /// 1e-9 cells inside its cell along every axis is in the same voxel; others take the divisions.
 #[inline(always)]
-fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Option<usize> {
+pub(super) fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Option<usize> {
     let along = |x: f64, lo: f64| -> Option<i64> {
         let u = (x - lo) * inv_res;
         let l = floor_i64(u);
