@@ -888,11 +888,11 @@ mod tests {
             f32::MAX,
         ];
         for case in 0..2000 {
-            let n = rng.gen_range(0..12);
+            let n = rng.random_range(0..12);
             let range = (0..n)
-                .map(|_| match rng.gen_range(0..3) {
-                    0 => specials[rng.gen_range(0..specials.len())],
-                    _ => rng.gen_range(-1.0f32..9.0),
+                .map(|_| match rng.random_range(0..3) {
+                    0 => specials[rng.random_range(0..specials.len())],
+                    _ => rng.random_range(-1.0f32..9.0),
                 })
                 .collect::<Vec<_>>();
             let mut f = frame([0.0; 3], &[]);
