@@ -43,6 +43,7 @@ use super::occupancy::{floor_i64, voxel_at_fast};
 use crate::grid::GridSpec;
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 /// Distances closer than this to a voxel boundary (metres) count as ties that rounding could decide.
 pub(super) const TIE_M: f64 = 1e-9;
@@ -54,7 +55,7 @@ pub(super) struct Ambiguous;
 /// No ray (end of a linked list); no voxel.
 pub(super) const NONE: u32 = u32::MAX;
 
-/// In [`Scratch::hits`]: the ray's hit lies in no voxel of the grid (most often a floor hit whose
+/// In a frame's hit voxels ([`Sweep::column`]'s `hits`): the ray's hit lies in no voxel of the grid (most often a floor hit whose
 /// point rounded under z = 0, or a wall hit above the grid's top).
 pub(super) const OUTSIDE: u32 = u32::MAX - 1;
 
@@ -125,10 +126,6 @@ pub(super) struct Scratch {
     /// one.
     pub marks: Vec<(usize, u64)>,
     pub singles: Vec<usize>,
-    /// Per ray of the frame (those of the swept columns written): the voxel where it hit, or
-    /// [`OUTSIDE`], so that the hit pass, which runs in one thread, need not find it; [`NONE`] for
-    /// rays without a hit (and for the rays of a column the sweep gave up).
-    pub hits: Vec<u32>,
 }
 
 /// The smaller of two numbers that are not NaN, in a compare and a select (`f64::min` also
@@ -231,8 +228,10 @@ impl<'a> Sweep<'a> {
 
     /// Sweeps pixel column `col`: on `Ok`, `s.marks` holds the voxels that its rays pass, save the
     /// rays listed in `s.singles` (to be walked one by one), the same as `traverse` gives ray by
-    /// ray (rays with an invalid range skipped, no-hit rays to the maximum range).
-    pub fn column(&self, col: usize, s: &mut Scratch) -> Result<(), Ambiguous> {
+    /// ray (rays with an invalid range skipped, no-hit rays to the maximum range). Either way,
+    /// each of the column's rays has its entry in `hits` (indexed by ray) written: the voxel where
+    /// it hit, [`OUTSIDE`], or [`NONE`] for no hit, as `super::occupancy::hit_voxel` gives it.
+    pub fn column(&self, col: usize, s: &mut Scratch, hits: &[AtomicU32]) -> Result<(), Ambiguous> {
         s.marks.clear();
         s.singles.clear();
         let (grid, f, o) = (self.grid, self.frame, self.o);
@@ -247,7 +246,7 @@ impl<'a> Sweep<'a> {
         let mut steps = 0usize;
         for row in 0..f.height {
             let i = row * f.width + col;
-            s.hits[i] = NONE;
+            hits[i].store(NONE, Relaxed);
             let range = f.range[i];
             let Some(t_end) = f.free_length(i) else {
                 continue;
@@ -294,7 +293,7 @@ impl<'a> Sweep<'a> {
             // (Also NaN.)
             if t1 <= 0.0 || t1.is_nan() {
                 if is_hit {
-                    s.hits[i] = look_up();
+                    hits[i].store(look_up(), Relaxed);
                 }
                 continue; // the walk visits nothing
             }
@@ -332,7 +331,7 @@ impl<'a> Sweep<'a> {
                 self.layer(end[2]),
             ) else {
                 if is_hit {
-                    s.hits[i] = look_up();
+                    hits[i].store(look_up(), Relaxed);
                 }
                 s.singles.push(i);
                 continue;
@@ -347,10 +346,11 @@ impl<'a> Sweep<'a> {
                     && end[2] >= 0.0
                     && end[2] < self.inner[2].1);
             if is_hit {
-                s.hits[i] = match kept {
+                let v = match kept {
                     true => iz as u32 * self.cells + end_cell,
                     false => look_up(),
                 };
+                hits[i].store(v, Relaxed);
             }
             // One line crossed per step of the path.
             let j = (ix - self.cell[0]).unsigned_abs() + (iy - self.cell[1]).unsigned_abs();

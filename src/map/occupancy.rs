@@ -7,6 +7,7 @@ use crate::sensor::DepthFrame;
 use nalgebra::{Point2, Point3, Vector3};
 use rayon::prelude::*;
 use std::ops::Range;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 /// What is known about one voxel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,6 +147,22 @@ pub struct Occupancy {
     /// passed through this frame. All zero between frames (only the frame's window of them is ever
     /// set, and cleared after use). And the task's buffers for sweeping columns.
     passed: Vec<(Vec<u64>, Scratch)>,
+    /// Per ray of the frame: the voxel where it hit ([`hit_voxel`]).
+    hits: RayHits,
+}
+
+/// Per ray of a frame, the voxel where it hit ([`hit_voxel`]), written by the task that traversed
+/// the ray, so that the hit pass (not split: see `integrate_with`) reads one array in ray order and
+/// finds no voxel itself. (Atomics only so that the tasks can share it: each entry has one writer, and
+/// the pass reads after the tasks end. Relaxed loads and stores are plain moves.) Nothing is kept
+/// from frame to frame, so a clone starts empty.
+#[derive(Debug, Default)]
+struct RayHits(Vec<AtomicU32>);
+
+impl Clone for RayHits {
+    fn clone(&self) -> RayHits {
+        RayHits::default()
+    }
 }
 
 impl Occupancy {
@@ -162,6 +179,7 @@ impl Occupancy {
             frame: 0,
             known: 0,
             passed: Vec::new(),
+            hits: RayHits::default(),
         }
     }
 
@@ -241,58 +259,54 @@ impl Occupancy {
         let grid = self.grid;
         let origin = frame.origin.cast::<f64>();
         // Pass 1: the voxels that valid rays pass (and, from the column sweep, those where they end).
-        let (window, walked, swept) = self.mark_passed(frame, origin, walk);
-        // Borrow the arrays apart so that the hot loop keeps their pointers in registers.
+        let (window, walked, filled) = self.mark_passed(frame, origin, walk);
+        // Pass 2: hits, in ray order. The obstacle boxes depend on the order of a column's hits
+        // (`BoxGrower::record_hit`), so this pass is not split among tasks. But the voxels' updates
+        // and the obstacle boxes are two chains over the same hits that share no array: on large
+        // frames they run side by side, each in ray order (the same result as one after the other);
+        // on small ones handing a chain to the pool costs more than it saves.
+        let hits = FrameHits {
+            grid,
+            frame,
+            origin,
+            voxels: filled.then_some(&self.hits.0[..]),
+        };
         let mut up = Updater {
             voxels: &mut self.voxels,
             column_stamp: &mut self.column_stamp,
-            obstacle_box: &mut self.obstacle_box,
-            grid,
             frame: self.frame,
             rule: self.rule,
             layer_len: grid.cells(),
             known: 0,
             update: OccupancyUpdate::default(),
         };
+        let mut boxes = BoxGrower {
+            obstacle_box: &mut self.obstacle_box,
+            grid,
+            grown: Vec::new(),
+        };
         // Flat voxel indices are layer-major, so the obstacle layers are one index range.
         let obstacle_voxels =
             self.obstacle_layers.start * grid.cells()..self.obstacle_layers.end * grid.cells();
-        // Pass 2: hits, in ray order (which makes the obstacle boxes deterministic).
-        let inv_res = 1.0 / grid.res;
-        // Task `k` swept pixel columns k, k + tasks, ...: the task that holds ray `i`'s end voxel.
-        let (tasks, width) = (self.passed.len(), frame.width.max(1));
-        let (mut col, mut task) = (0, 0);
-        for (i, (dir, &range)) in frame.dirs.iter().zip(&frame.range).enumerate() {
-            if range.is_finite() {
-                let end = || origin + dir.cast::<f64>() * range as f64;
-                let v = match swept {
-                    true => self.passed[task].1.hits[i],
-                    false => NONE,
-                };
-                let v = match v {
-                    NONE => voxel_at_fast(&grid, inv_res, end()),
-                    OUTSIDE => None,
-                    v => Some(v as usize),
-                };
-                if let Some(v) = v {
-                    up.apply(v, up.rule.hit);
-                    if obstacle_voxels.contains(&v) {
-                        let end = end();
-                        up.record_hit(v, end.x as f32, end.y as f32);
-                    }
+        let apply_hits = || hits.for_each(|_, v| up.apply(v, up.rule.hit));
+        let grow_boxes = || {
+            hits.for_each(|i, v| {
+                if obstacle_voxels.contains(&v) {
+                    let end = hits.end(i);
+                    boxes.record_hit(v % grid.cells(), end.x as f32, end.y as f32);
                 }
-            }
-            col += 1;
-            task += 1;
-            if task == tasks {
-                task = 0;
-            }
-            if col == width {
-                (col, task) = (0, 0);
-            }
+            })
+        };
+        if frame.range.len() >= PARALLEL_HIT_PASS_RAYS && rayon::current_num_threads() > 1 {
+            rayon::join(apply_hits, grow_boxes);
+        } else {
+            let (mut apply_hits, mut grow_boxes) = (apply_hits, grow_boxes);
+            apply_hits();
+            grow_boxes();
         }
         self.known += up.known;
         let mut update = up.update;
+        update.grown_boxes = boxes.grown;
         // Pass 3: misses, to the voxels no hit stamped this frame.
         if let Some(window) = window {
             self.apply_misses(window, &mut update);
@@ -312,7 +326,8 @@ impl Occupancy {
     /// union: the same whatever the split). Only the frame's window (the columns within range of
     /// the camera) of the masks is touched, so the cost follows the frame, not the map's size.
     /// Returns the window (`None`: nothing marked), the number of pixel columns walked ray by ray,
-    /// and whether the tasks' [`Scratch::hits`] hold the swept rays' end voxels.
+    /// and whether the tasks wrote every ray's hit voxel to `self.hits` (they did unless nothing
+    /// was marked).
     fn mark_passed(
         &mut self,
         frame: &DepthFrame,
@@ -350,11 +365,13 @@ impl Occupancy {
             Walk::Columns => Sweep::new(&grid, frame, origin),
             Walk::Rays => None,
         };
-        if sweep.is_some() {
-            for (_, scratch) in &mut self.passed {
-                scratch.hits.resize(n, NONE);
-            }
+        if self.hits.0.len() < n {
+            self.hits.0.resize_with(n, || AtomicU32::new(NONE));
         }
+        let hits = &self.hits.0[..n];
+        let inv_res = 1.0 / grid.res;
+        let look_up =
+            |i: usize| hits[i].store(hit_voxel(&grid, inv_res, frame, origin, i), Relaxed);
         // Traverse ray `i`.
         let walk_ray = |bits: &mut [u64], i: usize| {
             let Some(t_end) = frame.free_length(i) else {
@@ -397,12 +414,13 @@ impl Occupancy {
             let Some(sweep) = &sweep else {
                 for i in (k..n).step_by(tasks) {
                     walk_ray(bits, i);
+                    look_up(i);
                 }
                 return if k == 0 { frame.width } else { 0 };
             };
             let mut walked = 0;
             for col in (k..frame.width).step_by(tasks) {
-                if sweep.column(col, scratch).is_ok() {
+                if sweep.column(col, scratch, hits).is_ok() {
                     // (The sweep applies to grids of at most 64 layers: one word per cell.)
                     for &(cell, mask) in &scratch.marks {
                         bits[cell] |= mask;
@@ -413,8 +431,8 @@ impl Occupancy {
                 } else {
                     walked += 1;
                     for row in 0..frame.height {
-                        scratch.hits[row * frame.width + col] = NONE;
                         walk_ray(bits, row * frame.width + col);
+                        look_up(row * frame.width + col);
                     }
                 }
             }
@@ -437,7 +455,7 @@ impl Occupancy {
                 }
             }
         }
-        (Some(Window { x0, x1, y0, y1 }), walked, sweep.is_some())
+        (Some(Window { x0, x1, y0, y1 }), walked, true)
     }
 
     /// The second half of the miss pass: each voxel that [`Occupancy::mark_passed`] marked in
@@ -559,12 +577,68 @@ pub(crate) enum Walk {
     Columns,
 }
 
-/// The mutable voxel arrays during one frame's integration.
+/// Rays of a frame with this many or more run the hit pass's two chains side by side.
+const PARALLEL_HIT_PASS_RAYS: usize = 32_768;
+
+/// The hits of one frame, in ray order.
+struct FrameHits<'a> {
+    grid: GridSpec,
+    frame: &'a DepthFrame,
+    origin: Point3<f64>,
+    /// Every ray's [`hit_voxel`], when the integration tasks wrote them.
+    voxels: Option<&'a [AtomicU32]>,
+}
+
+impl FrameHits<'_> {
+    /// Ray `i`'s hit point.
+    #[inline(always)]
+    fn end(&self, i: usize) -> Point3<f64> {
+        self.origin + self.frame.dirs[i].cast::<f64>() * self.frame.range[i] as f64
+    }
+
+    /// Calls `f(i, v)` for every ray `i` with a finite range whose hit point ([`FrameHits::end`])
+    /// lies in voxel `v` of the grid, in ray order.
+    #[inline(always)]
+    fn for_each(&self, mut f: impl FnMut(usize, usize)) {
+        let n = self.frame.dirs.len().min(self.frame.range.len());
+        let inv_res = 1.0 / self.grid.res;
+        for i in 0..n {
+            let v = match self.voxels {
+                Some(voxels) => voxels[i].load(Relaxed),
+                None => hit_voxel(&self.grid, inv_res, self.frame, self.origin, i),
+            };
+            if v < OUTSIDE {
+                f(i, v as usize);
+            }
+        }
+    }
+}
+
+/// Where ray `i` of `frame` hit: its voxel, [`OUTSIDE`] the grid, or [`NONE`] (its range is not
+/// finite: no hit). The sweep finds most of them on its way (`Sweep::column`).
+#[inline(always)]
+fn hit_voxel(
+    grid: &GridSpec,
+    inv_res: f64,
+    frame: &DepthFrame,
+    origin: Point3<f64>,
+    i: usize,
+) -> u32 {
+    let range = frame.range[i];
+    if !range.is_finite() {
+        return NONE;
+    }
+    let end = origin + frame.dirs[i].cast::<f64>() * range as f64;
+    match voxel_at_fast(grid, inv_res, end) {
+        Some(v) => v as u32,
+        None => OUTSIDE,
+    }
+}
+
+/// The voxel arrays during one frame's integration.
 struct Updater<'a> {
     voxels: &'a mut [Voxel],
     column_stamp: &'a mut [u32],
-    obstacle_box: &'a mut [ObstacleBox],
-    grid: GridSpec,
     frame: u32,
     rule: LogOdds,
     layer_len: usize,
@@ -600,10 +674,29 @@ impl Updater<'_> {
         }
     }
 
-    /// Adds hit point `(x, y)` in voxel `v` to its column's obstacle box.
-    #[inline(always)]
-    fn record_hit(&mut self, v: usize, x: f32, y: f32) {
+    #[cold]
+    fn column_changed(&mut self, v: usize) {
+        // The column of a flat voxel index (see `GridSpec::voxel_parts`).
         let column = v % self.layer_len;
+        if self.column_stamp[column] != self.frame {
+            self.column_stamp[column] = self.frame;
+            self.update.changed_columns.push(column as u32);
+        }
+    }
+}
+
+/// The obstacle boxes during one frame's integration.
+struct BoxGrower<'a> {
+    obstacle_box: &'a mut [ObstacleBox],
+    grid: GridSpec,
+    /// Columns whose box grew (with repeats).
+    grown: Vec<u32>,
+}
+
+impl BoxGrower<'_> {
+    /// Adds hit point `(x, y)` to the obstacle box of `column`, where it lies.
+    #[inline(always)]
+    fn record_hit(&mut self, column: usize, x: f32, y: f32) {
         if !self.obstacle_box[column].contains(x, y) {
             self.grow_box(column, x, y);
         }
@@ -622,17 +715,7 @@ impl Updater<'_> {
         b.max[0] = b.max[0].max((x + s).min(hi[0]).max(x));
         b.max[1] = b.max[1].max((y + s).min(hi[1]).max(y));
         if *b != old {
-            self.update.grown_boxes.push(column as u32);
-        }
-    }
-
-    #[cold]
-    fn column_changed(&mut self, v: usize) {
-        // The column of a flat voxel index (see `GridSpec::voxel_parts`).
-        let column = v % self.layer_len;
-        if self.column_stamp[column] != self.frame {
-            self.column_stamp[column] = self.frame;
-            self.update.changed_columns.push(column as u32);
+            self.grown.push(column as u32);
         }
     }
 }
