@@ -259,8 +259,8 @@ impl<'a> Sweep<'a> {
                 o[1] + d[1] * t_end,
                 o[2] + d[2] * t_end,
             ];
-            // The hit's voxel where the sweep does not tell it below: the hit pass's own lookup of
-            // the same point (its `origin + dir * range`), save that a point TIE_M below the
+            // The hit's voxel where the sweep does not tell it below: `hit_voxel`'s lookup of the
+            // same point (its `origin + dir * range`), save that a point TIE_M below the
             // floor or above the top is outside by any rounding of the lookup's floors (most
             // of these lookups: floor hits rounded under z = 0).
             let hit_point = Point3::from(end);
