@@ -39,7 +39,7 @@
 //! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
-use super::occupancy::{floor_i64, voxel_at_fast};
+use super::occupancy::{floor_i64, hit_voxel_at};
 use crate::grid::GridSpec;
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
@@ -55,8 +55,9 @@ pub(super) struct Ambiguous;
 /// No ray (end of a linked list); no voxel.
 pub(super) const NONE: u32 = u32::MAX;
 
-/// In a frame's hit voxels ([`Sweep::column`]'s `hits`): the ray's hit lies in no voxel of the grid (most often a floor hit whose
-/// point rounded under z = 0, or a wall hit above the grid's top).
+/// In a frame's hit voxels ([`Sweep::column`]'s `hits`): the ray's hit lies in no voxel of the
+/// grid (most often a floor hit whose point rounded under z = 0, or a wall hit above the grid's
+/// top).
 pub(super) const OUTSIDE: u32 = u32::MAX - 1;
 
 /// The frame-wide part of the sweep.
@@ -259,21 +260,10 @@ impl<'a> Sweep<'a> {
                 o[1] + d[1] * t_end,
                 o[2] + d[2] * t_end,
             ];
-            // The hit's voxel where the sweep does not tell it below: `hit_voxel`'s lookup of the
-            // same point (its `origin + dir * range`), save that a point TIE_M below the
-            // floor or above the top is outside by any rounding of the lookup's floors (most
-            // of these lookups: floor hits rounded under z = 0).
-            let hit_point = Point3::from(end);
-            let is_hit = range.is_finite();
-            let look_up = || {
-                if hit_point.z < -TIE_M || hit_point.z > self.faces[2].1 + TIE_M {
-                    return OUTSIDE;
-                }
-                match voxel_at_fast(grid, self.inv_res, hit_point) {
-                    Some(v) => v as u32,
-                    None => OUTSIDE,
-                }
-            };
+            // The hit's voxel where the sweep does not tell it below: the lookup `hit_voxel`
+            // makes, of the same point (its `origin + dir * range`).
+            let (is_hit, hit_point) = (range.is_finite(), Point3::from(end));
+            let look_up = || hit_voxel_at(grid, self.inv_res, hit_point);
             // The clip (`clip_to_grid_inv`), with the origin inside the grid: it starts the ray at
             // 0, and only an axis along which the end is not well inside the box can cut it (the
             // quotients are off by ulps, the margin is 1e-6 m), so only such axes take a division.

@@ -1,6 +1,6 @@
 //! Dense 3D occupancy voxels with OctoMap-style clamped log-odds, updated one depth frame at a time.
 
-use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE};
+use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE, TIE_M};
 use crate::config::MapConfig;
 use crate::grid::{Cell, GridSpec};
 use crate::sensor::DepthFrame;
@@ -152,8 +152,7 @@ pub struct Occupancy {
 }
 
 /// Per ray of a frame, the voxel where it hit ([`hit_voxel`]), written by the task that traversed
-/// the ray, so that the hit pass (not split: see `integrate_with`) reads one array in ray order and
-/// finds no voxel itself. (Atomics only so that the tasks can share it: each entry has one writer, and
+/// the ray, so that the hit pass reads one array in ray order and finds no voxel itself. (Atomics only so that the tasks can share it: each entry has one writer, and
 /// the pass reads after the tasks end. Relaxed loads and stores are plain moves.) Nothing is kept
 /// from frame to frame, so a clone starts empty.
 #[derive(Debug, Default)]
@@ -259,17 +258,16 @@ impl Occupancy {
         let grid = self.grid;
         let origin = frame.origin.cast::<f64>();
         // Pass 1: the voxels that valid rays pass (and, from the column sweep, those where they end).
-        let (window, walked, filled) = self.mark_passed(frame, origin, walk);
+        let (window, walked) = self.mark_passed(frame, origin, walk);
         // Pass 2: hits, in ray order. The obstacle boxes depend on the order of a column's hits
         // (`BoxGrower::record_hit`), so this pass is not split among tasks. But the voxels' updates
         // and the obstacle boxes are two chains over the same hits that share no array: on large
         // frames they run side by side, each in ray order (the same result as one after the other);
         // on small ones handing a chain to the pool costs more than it saves.
         let hits = FrameHits {
-            grid,
             frame,
             origin,
-            voxels: filled.then_some(&self.hits.0[..]),
+            voxels: &self.hits.0[..],
         };
         let mut up = Updater {
             voxels: &mut self.voxels,
@@ -327,17 +325,23 @@ impl Occupancy {
     /// rays at a time, one OR per cell and column); the masks are merged into the first task's (a
     /// union: the same whatever the split). Only the frame's window (the columns within range of
     /// the camera) of the masks is touched, so the cost follows the frame, not the map's size.
-    /// Returns the window (`None`: nothing marked), the number of pixel columns walked ray by ray,
-    /// and whether the tasks wrote every ray's hit voxel to `self.hits` (they did unless nothing
-    /// was marked).
+    /// Also writes every ray's hit voxel to `self.hits`. Returns the window (`None`: nothing
+    /// marked) and the number of pixel columns walked ray by ray.
     fn mark_passed(
         &mut self,
         frame: &DepthFrame,
         origin: Point3<f64>,
         walk: Walk,
-    ) -> (Option<Window>, usize, bool) {
+    ) -> (Option<Window>, usize) {
         let grid = self.grid;
         let n = frame.dirs.len().min(frame.range.len());
+        if self.hits.0.len() < n {
+            self.hits.0.resize_with(n, || AtomicU32::new(NONE));
+        }
+        let hits = &self.hits.0[..n];
+        let inv_res = 1.0 / grid.res;
+        let look_up =
+            |i: usize| hits[i].store(hit_voxel(&grid, inv_res, frame, origin, i), Relaxed);
         // The columns any ray can reach: within the longest ray of the origin (plus a cell for rounding).
         let reach = longest_reach(frame) as f64;
         let to_cell = |v: f64, o: f64, len: usize| -> i64 {
@@ -348,7 +352,8 @@ impl Occupancy {
         let y0 = (to_cell(origin.y - reach, grid.origin_y, grid.ny) - 1).max(0);
         let y1 = (to_cell(origin.y + reach, grid.origin_y, grid.ny) + 1).min(grid.ny as i64 - 1);
         if n == 0 || x0 > x1 || y0 > y1 || !reach.is_finite() {
-            return (None, 0, false);
+            (0..n).for_each(look_up);
+            return (None, 0);
         }
         let (x0, x1, y0, y1) = (x0 as usize, x1 as usize, y0 as usize, y1 as usize);
         let cells = grid.cells();
@@ -367,13 +372,6 @@ impl Occupancy {
             Walk::Columns => Sweep::new(&grid, frame, origin),
             Walk::Rays => None,
         };
-        if self.hits.0.len() < n {
-            self.hits.0.resize_with(n, || AtomicU32::new(NONE));
-        }
-        let hits = &self.hits.0[..n];
-        let inv_res = 1.0 / grid.res;
-        let look_up =
-            |i: usize| hits[i].store(hit_voxel(&grid, inv_res, frame, origin, i), Relaxed);
         // Traverse ray `i`.
         let walk_ray = |bits: &mut [u64], i: usize| {
             let Some(t_end) = frame.free_length(i) else {
@@ -458,7 +456,7 @@ impl Occupancy {
                 }
             }
         }
-        (Some(Window { x0, x1, y0, y1 }), walked, true)
+        (Some(Window { x0, x1, y0, y1 }), walked)
     }
 
     /// The second half of the miss pass: each voxel that [`Occupancy::mark_passed`] marked in
@@ -583,7 +581,8 @@ pub(crate) enum Walk {
 /// The most rays (pixel columns) that an integration task takes together: with the frame's
 /// [`RayHits`] in rows of whole cache lines and more, two tasks seldom write the same line. (Where
 /// they took one ray or column each in turn, a line moved between the cores at almost every
-/// write: the map stage of a 640 × 480 frame took 1.2 ms longer with two threads.)
+/// write: with two threads that build was no faster at 640 × 480 than one whose tasks each kept
+/// their own array.)
 const TASK_BLOCK: usize = 32;
 
 /// The items of `0..n` that task `k` of `tasks` takes: blocks of up to [`TASK_BLOCK`], at least 8
@@ -600,18 +599,17 @@ const PARALLEL_HIT_PASS_RAYS: usize = 32_768;
 
 /// The hits of one frame, in ray order.
 struct FrameHits<'a> {
-    grid: GridSpec,
     frame: &'a DepthFrame,
     origin: Point3<f64>,
-    /// Every ray's [`hit_voxel`], when the integration tasks wrote them.
-    voxels: Option<&'a [AtomicU32]>,
+    /// Every ray's [`hit_voxel`], as the integration tasks wrote them.
+    voxels: &'a [AtomicU32],
 }
 
 impl FrameHits<'_> {
     /// Ray `i`'s hit point.
     #[inline(always)]
     fn end(&self, i: usize) -> Point3<f64> {
-        self.origin + self.frame.dirs[i].cast::<f64>() * self.frame.range[i] as f64
+        hit_point(self.frame, self.origin, i)
     }
 
     /// Calls `f(i, v)` for every ray `i` with a finite range whose hit point ([`FrameHits::end`])
@@ -619,12 +617,8 @@ impl FrameHits<'_> {
     #[inline(always)]
     fn for_each(&self, mut f: impl FnMut(usize, usize)) {
         let n = self.frame.dirs.len().min(self.frame.range.len());
-        let inv_res = 1.0 / self.grid.res;
-        for i in 0..n {
-            let v = match self.voxels {
-                Some(voxels) => voxels[i].load(Relaxed),
-                None => hit_voxel(&self.grid, inv_res, self.frame, self.origin, i),
-            };
+        for (i, v) in self.voxels[..n].iter().enumerate() {
+            let v = v.load(Relaxed);
             if v < OUTSIDE {
                 f(i, v as usize);
             }
@@ -642,12 +636,27 @@ fn hit_voxel(
     origin: Point3<f64>,
     i: usize,
 ) -> u32 {
-    let range = frame.range[i];
-    if !range.is_finite() {
-        return NONE;
+    match frame.range[i].is_finite() {
+        true => hit_voxel_at(grid, inv_res, hit_point(frame, origin, i)),
+        false => NONE,
     }
-    let end = origin + frame.dirs[i].cast::<f64>() * range as f64;
-    match voxel_at_fast(grid, inv_res, end) {
+}
+
+/// Ray `i`'s hit point, `origin + dir · range` (the column sweep computes the same).
+#[inline(always)]
+fn hit_point(frame: &DepthFrame, origin: Point3<f64>, i: usize) -> Point3<f64> {
+    origin + frame.dirs[i].cast::<f64>() * frame.range[i] as f64
+}
+
+/// The voxel of hit point `p`, or [`OUTSIDE`] the grid. A point more than TIE_M below the floor or
+/// above the top is outside by any rounding of [`voxel_at_fast`]'s floors: those (most of them
+/// floor hits rounded under z = 0) are told apart without it.
+#[inline(always)]
+pub(super) fn hit_voxel_at(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> u32 {
+    if p.z < -TIE_M || p.z > grid.nz as f64 * grid.res + TIE_M {
+        return OUTSIDE;
+    }
+    match voxel_at_fast(grid, inv_res, p) {
         Some(v) => v as u32,
         None => OUTSIDE,
     }
