@@ -187,6 +187,42 @@ pub enum CellState {
     Obstacle,
 }
 
+/// `x.floor()` as an integer, without a libm call (the baseline x86-64 target has no rounding
+/// instruction). The voxel walk and every lookup that must agree with it take their floors here.
+/// Far outside any grid it is clamped: above 2^52 to 2^52, below -2^52 to -2^52 - 1; NaN gives
+/// -2^52.
+#[inline(always)]
+pub fn floor_i64(x: f64) -> i64 {
+    floor_both(x).0
+}
+
+/// [`floor_i64`]`(x)`, and the same as an `f64` taken from the conversion already made rather than
+/// converted back. `(l, lf)` has `lf == l as f64` exactly.
+#[inline(always)]
+pub fn floor_both(x: f64) -> (i64, f64) {
+    let t = truncate(x);
+    let tf = t as f64;
+    if x < tf {
+        (t - 1, tf - 1.0)
+    } else {
+        (t, tf)
+    }
+}
+
+/// `x`'s integer part, with `x` first clamped to ±2^52 (where every f64 is already an integer,
+/// far outside any grid) and NaN taken as -2^52. `x as i64` saturates at i64's ends and takes NaN
+/// to 0 instead: those rules cost several instructions besides the conversion itself, in the voxel
+/// lookups of every ray; these two compares are one instruction each.
+#[inline(always)]
+fn truncate(x: f64) -> i64 {
+    const LIMIT: f64 = 4_503_599_627_370_496.0; // 2^52
+                                                // (Written so that a NaN fails the first test.)
+    let c = if x > -LIMIT { x } else { -LIMIT };
+    let c = if c < LIMIT { c } else { LIMIT };
+    // SAFETY: `c` is finite and at most 2^52 in magnitude: its integer part fits an i64.
+    unsafe { c.to_int_unchecked::<i64>() }
+}
+
 /// Exact squared Euclidean distance transform (Felzenszwalb–Huttenlocher), in cells², from every
 /// cell to the nearest `true` cell; `f64::INFINITY` where there is none.
 pub fn distance_transform(sites: &[bool], nx: usize, ny: usize) -> Vec<f64> {
@@ -262,6 +298,51 @@ fn edt_1d(f: &mut [f64]) {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn floors_are_libms_within_two_to_the_52() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let limit = 2f64.powi(52);
+        // Integers, their neighbours an ulp away, ±0, tiny and huge magnitudes, and random values
+        // of every scale.
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            0.5,
+            -0.5,
+            limit,
+            -limit,
+            limit - 0.5,
+        ];
+        for k in -60i64..=60 {
+            let x = k as f64;
+            xs.extend([x, x.next_up(), x.next_down(), x + 0.5, x * 1e9 + 0.25]);
+        }
+        for _ in 0..20_000 {
+            let scale = 10f64.powi(rng.random_range(-12..16));
+            xs.push(rng.random_range(-1.0..1.0) * scale);
+        }
+        for x in xs {
+            let (l, lf) = floor_both(x);
+            // (Equal as numbers: the floor of -0.0 is -0.0, and 0 as f64 is +0.0.)
+            assert_eq!(lf, x.floor(), "floor_both({x}).1");
+            assert_eq!(lf.to_bits(), (l as f64).to_bits(), "floor_both({x}).1");
+            assert_eq!(l, x.floor() as i64, "floor_both({x}).0");
+            assert_eq!(floor_i64(x), l);
+        }
+        // Beyond ±2^52 and NaN: clamped, far outside any grid.
+        for (x, l) in [
+            (2f64.powi(60), 1i64 << 52),
+            (f64::INFINITY, 1 << 52),
+            (-2f64.powi(60), -(1 << 52) - 1),
+            (f64::NEG_INFINITY, -(1 << 52) - 1),
+            (f64::NAN, -(1 << 52)),
+        ] {
+            assert_eq!(floor_both(x), (l, l as f64), "floor_both({x})");
+        }
+    }
 
     #[test]
     fn edt_matches_brute_force() {

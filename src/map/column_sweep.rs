@@ -39,8 +39,8 @@
 //! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
-use super::occupancy::{floor_i64, hit_voxel_at};
-use crate::grid::GridSpec;
+use super::occupancy::hit_voxel_at;
+use crate::grid::{floor_both, floor_i64, GridSpec};
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
@@ -207,8 +207,8 @@ impl<'a> Sweep<'a> {
         // In cells. Its rounding (under 1e-11 cells on any grid that fits in memory) is far
         // below the tie width.
         let u = (x - lo) * self.inv_res;
-        let l = floor_i64(u);
-        let frac = u - l as f64;
+        let (l, lf) = floor_both(u);
+        let frac = u - lf;
         // The common case first: clear of both lines, inside (false for NaN too).
         if frac >= self.tie && frac <= 1.0 - self.tie && (0..len).contains(&l) {
             return Ok(l);

@@ -2,7 +2,7 @@
 
 use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE, TIE_M};
 use crate::config::MapConfig;
-use crate::grid::{Cell, GridSpec};
+use crate::grid::{floor_both, floor_i64, Cell, GridSpec};
 use crate::sensor::DepthFrame;
 use nalgebra::{Point2, Point3, Vector3};
 use rayon::prelude::*;
@@ -772,8 +772,8 @@ fn checked_voxel(grid: &GridSpec, ix: i64, iy: i64, iz: i64) -> Option<usize> {
 pub(super) fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Option<usize> {
     let along = |x: f64, lo: f64| -> Option<i64> {
         let u = (x - lo) * inv_res;
-        let l = floor_i64(u);
-        let frac = u - l as f64;
+        let (l, lf) = floor_both(u);
+        let frac = u - lf;
         (frac > 1e-9 && frac < 1.0 - 1e-9).then_some(l)
     };
     let (Some(ix), Some(iy), Some(iz)) = (
@@ -784,13 +784,6 @@ pub(super) fn voxel_at_fast(grid: &GridSpec, inv_res: f64, p: Point3<f64>) -> Op
         return voxel_at(grid, p);
     };
     checked_voxel(grid, ix, iy, iz)
-}
-
-/// `x.floor()` without a libm call (the baseline x86-64 target has no rounding instruction).
-#[inline(always)]
-pub(super) fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - (x < t as f64) as i64
 }
 
 /// The part `[t0, t1)` of the segment from `origin` along `dir` for length `t_end` that lies in the

@@ -42,7 +42,7 @@
 #[cfg(test)]
 use crate::config::Config;
 use crate::config::{CameraConfig, MetricsConfig};
-use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{floor_both, floor_i64, Cell, GridSpec, NEIGHBOURS_8};
 use crate::map::occupancy::traverse_while;
 use crate::scene::{GroundTruth, Scene, VoxelTriangles};
 use crate::sensor::{DepthCamera, MeshBvh};
@@ -388,27 +388,6 @@ const MIN_SPLIT: usize = 4;
 /// side of it than the map's voxel walk puts it (the two round differently, by ~1e-15 m): such a
 /// pixel column is walked ray by ray instead.
 const TIE_M: f64 = 1e-9;
-
-/// `x.floor()` without a libm call (the baseline x86-64 target has no rounding instruction), as the
-/// voxel walk computes it.
-#[inline(always)]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - (x < t as f64) as i64
-}
-
-/// [`floor_i64`]`(x)`, and the same as an `f64` taken from the conversion already made rather than
-/// converted back (the conversions are the slow part of the sweep's layer lookups).
-#[inline(always)]
-fn floor_both(x: f64) -> (i64, f64) {
-    let t = x as i64;
-    let tf = t as f64;
-    if x < tf {
-        (t - 1, tf - 1.0)
-    } else {
-        (t, tf)
-    }
-}
 
 /// One ray of a pixel column during a sweep (see [`VoxelCaster::sweep_column`]).
 #[derive(Clone, Copy, Debug, Default)]
