@@ -215,8 +215,9 @@ pub fn floor_both(x: f64) -> (i64, f64) {
 /// lookups of every ray; these two compares are one instruction each.
 #[inline(always)]
 fn truncate(x: f64) -> i64 {
-    const LIMIT: f64 = 4_503_599_627_370_496.0; // 2^52
-                                                // (Written so that a NaN fails the first test.)
+    // 2^52.
+    const LIMIT: f64 = 4_503_599_627_370_496.0;
+    // (Written so that a NaN fails the first test.)
     let c = if x > -LIMIT { x } else { -LIMIT };
     let c = if c < LIMIT { c } else { LIMIT };
     // SAFETY: `c` is finite and at most 2^52 in magnitude: its integer part fits an i64.
