@@ -187,6 +187,12 @@ pub enum CellState {
     Obstacle,
 }
 
+/// Distances closer than this to a voxel boundary (metres) count as ties that rounding could
+/// decide: a distance or height computed one way might fall on the other side of the boundary than
+/// the voxel walk puts it (the two round differently, by ~1e-15 m). The column sweeps of the map and
+/// of the observable set walk such rays one by one instead.
+pub const TIE_M: f64 = 1e-9;
+
 /// `x.floor()` as an integer, without a libm call (the baseline x86-64 target has no rounding
 /// instruction). The voxel walk and every lookup that must agree with it take their floors here.
 /// Far outside any grid it is clamped: above 2^52 to 2^52, below -2^52 to -2^52 - 1; NaN gives

@@ -40,13 +40,10 @@
 //! way, with triangle tests on top; the two could share the path and the layer checks.)
 
 use super::occupancy::hit_voxel_at;
-use crate::grid::{floor_both, floor_i64, GridSpec};
+use crate::grid::{floor_both, floor_i64, GridSpec, TIE_M};
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
-
-/// Distances closer than this to a voxel boundary (metres) count as ties that rounding could decide.
-pub(super) const TIE_M: f64 = 1e-9;
 
 /// A column the sweep cannot vouch for: walk its rays one by one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,8 +1,8 @@
 //! Dense 3D occupancy voxels with OctoMap-style clamped log-odds, updated one depth frame at a time.
 
-use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE, TIE_M};
+use super::column_sweep::{Scratch, Sweep, NONE, OUTSIDE};
 use crate::config::MapConfig;
-use crate::grid::{floor_both, floor_i64, Cell, GridSpec};
+use crate::grid::{floor_both, floor_i64, Cell, GridSpec, TIE_M};
 use crate::sensor::DepthFrame;
 use nalgebra::{Point2, Point3, Vector3};
 use rayon::prelude::*;
@@ -152,9 +152,10 @@ pub struct Occupancy {
 }
 
 /// Per ray of a frame, the voxel where it hit ([`hit_voxel`]), written by the task that traversed
-/// the ray, so that the hit pass reads one array in ray order and finds no voxel itself. (Atomics only so that the tasks can share it: each entry has one writer, and
-/// the pass reads after the tasks end. Relaxed loads and stores are plain moves.) Nothing is kept
-/// from frame to frame, so a clone starts empty.
+/// the ray, so that the hit pass reads one array in ray order and finds no voxel itself. (Atomics
+/// only so that the tasks can share it: each entry has one writer, and the pass reads after the
+/// tasks end. Relaxed loads and stores are plain moves.) Nothing is kept from frame to frame, so a
+/// clone starts empty.
 #[derive(Debug, Default)]
 struct RayHits(Vec<AtomicU32>);
 

@@ -42,7 +42,7 @@
 #[cfg(test)]
 use crate::config::Config;
 use crate::config::{CameraConfig, MetricsConfig};
-use crate::grid::{floor_both, floor_i64, Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{floor_both, floor_i64, Cell, GridSpec, NEIGHBOURS_8, TIE_M};
 use crate::map::occupancy::traverse_while;
 use crate::scene::{GroundTruth, Scene, VoxelTriangles};
 use crate::sensor::{DepthCamera, MeshBvh};
@@ -383,11 +383,6 @@ fn world_ray(sin: f32, cos: f32, d: &Vector3<f32>) -> Vector3<f32> {
 /// this (see [`VoxelCaster::sweep_column`]): the halves that meet none are marked as runs, the rest
 /// walked one by one.
 const MIN_SPLIT: usize = 4;
-
-/// Closer than this to a voxel boundary, a distance or height computed here might fall on the other
-/// side of it than the map's voxel walk puts it (the two round differently, by ~1e-15 m): such a
-/// pixel column is walked ray by ray instead.
-const TIE_M: f64 = 1e-9;
 
 /// One ray of a pixel column during a sweep (see [`VoxelCaster::sweep_column`]).
 #[derive(Clone, Copy, Debug, Default)]
