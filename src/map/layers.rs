@@ -51,6 +51,8 @@ pub struct Layers {
     surface_band: Range<usize>,
     /// Known voxels a column's robot band needs to count as free.
     min_known: usize,
+    /// The robot band's layers below the camera.
+    below_eye: Range<usize>,
     /// Squared inflation test radius: the robot radius plus the margin, less the slack by which an
     /// obstacle box reaches beyond its hits. A cell is then inflated when its centre lies within the
     /// inflation radius of a ray hit (exactly so for walls along the grid axes), the same rule the
@@ -69,12 +71,21 @@ pub struct Layers {
     /// Cells with a known voxel in the robot band, an obstacle, or the robot's footprint: cells the
     /// robot has any evidence about. A never-seen cell may hide a wall.
     seen: Vec<bool>,
+    /// Unknown cells known only above the camera: looked over, never across at eye level. Rays
+    /// pass above a cabinet taller than the camera and clear the voxels over it, while its faces
+    /// that no look met head-on stay unknown; such a cell counts as an obstacle filling the cell.
+    hidden: Vec<bool>,
     surface: Vec<bool>,
     /// Per Obstacle cell, the obstacle box its inflation and proximity counts were made with (so
     /// that they can be taken back exactly); `None` for other cells.
     applied_box: Vec<Option<ObstacleBox>>,
     /// Number of obstacle boxes within the inflation radius of each cell's centre.
     inflation: Vec<u32>,
+    /// How many of those are boxes of hidden cells: a frontier may lie in their inflation (the robot
+    /// cannot stand there, but the unknown beside it is worth a look from where it can).
+    hidden_inflation: Vec<u32>,
+    /// Whether the box a cell counts with is a hidden cell's.
+    applied_hidden: Vec<bool>,
     /// Number of obstacle boxes within the proximity radius of each cell's centre.
     proximity: Vec<u32>,
     traversable: Vec<bool>,
@@ -89,6 +100,7 @@ impl Layers {
         let surface_band = grid.layers_in(m.band_min_m, m.band_max_m);
         let min_known =
             ((m.column_known_fraction * robot_band.len() as f64).ceil() as usize).max(1);
+        let below_eye = robot_band.start..grid.layers_in(0.0, params.eye_height_m).end;
         let radius = params.robot_radius_m + m.inflation_margin_m;
         let proximity_radius = radius + m.proximity_band_m;
         // A box lies within half a cell diagonal of its cell's centre.
@@ -99,6 +111,7 @@ impl Layers {
             robot_band,
             surface_band,
             min_known,
+            below_eye,
             inflation_radius2: (radius - OBSTACLE_BOX_SLACK_M as f64).powi(2),
             proximity_radius2: proximity_radius * proximity_radius,
             reach_offsets,
@@ -107,9 +120,12 @@ impl Layers {
             state: vec![CellState::Unknown; n],
             footprint: vec![false; n],
             seen: vec![false; n],
+            hidden: vec![false; n],
             surface: vec![false; n],
             applied_box: vec![None; n],
             inflation: vec![0; n],
+            hidden_inflation: vec![0; n],
+            applied_hidden: vec![false; n],
             proximity: vec![0; n],
             traversable: vec![false; n],
             frontier: vec![false; n],
@@ -125,7 +141,8 @@ impl Layers {
     pub fn surface(&self) -> &[bool] {
         &self.surface
     }
-    /// Where the obstacle of Obstacle cell `idx` is (`None` for other cells).
+    /// Where the obstacle of Obstacle cell `idx` is, the whole cell for a hidden cell (`None` for
+    /// other cells).
     pub fn obstacle_box(&self, idx: usize) -> Option<ObstacleBox> {
         self.applied_box[idx]
     }
@@ -144,8 +161,13 @@ impl Layers {
 
     /// The inflation and proximity counters, for tests comparing incremental and recomputed layers.
     #[cfg(test)]
-    pub(super) fn counters(&self) -> (&[u32], &[u32]) {
-        (&self.inflation, &self.proximity)
+    pub(super) fn counters(&self) -> (&[u32], &[u32], &[u32]) {
+        (&self.inflation, &self.hidden_inflation, &self.proximity)
+    }
+
+    /// Whether cell `idx` is known only above the camera (see the field's doc).
+    pub fn is_hidden(&self, idx: usize) -> bool {
+        self.hidden[idx]
     }
 
     /// Whether the robot has any evidence about cell `idx` (see the field's doc).
@@ -153,17 +175,20 @@ impl Layers {
         self.seen[idx]
     }
 
-    /// The state, surface flag and seen flag of one column, from its voxels and the footprint flag.
-    fn column(&self, occ: &Occupancy, idx: usize) -> (CellState, bool, bool) {
+    /// The state, surface flag, seen flag and hidden flag of one column, from its voxels and the
+    /// footprint flag.
+    fn column(&self, occ: &Occupancy, idx: usize) -> (CellState, bool, bool, bool) {
         let cell = self.grid.cell(idx);
         let mut known = 0;
         let mut lowest_known = false;
+        let mut known_below_eye = false;
         let mut blocked = false;
         for iz in self.robot_band.clone() {
             let s = occ.state(self.grid.voxel_index(cell, iz));
             if s != VoxelState::Unknown {
                 known += 1;
                 lowest_known |= iz == self.robot_band.start;
+                known_below_eye |= self.below_eye.contains(&iz);
             }
             blocked |= s == VoxelState::Occupied;
         }
@@ -182,13 +207,19 @@ impl Layers {
         } else {
             CellState::Unknown
         };
-        (state, surface, known > 0 || blocked || self.footprint[idx])
+        let hidden = state == CellState::Unknown && known > 0 && !known_below_eye;
+        (
+            state,
+            surface,
+            known > 0 || blocked || self.footprint[idx],
+            hidden,
+        )
     }
 
     /// The box Obstacle cell `idx` should count with: its hits', or the whole cell if it has none
     /// (which cannot happen while hits are what makes voxels occupied, but costs nothing to cover).
     fn box_for(&self, occ: &Occupancy, idx: usize) -> Option<ObstacleBox> {
-        (self.state[idx] == CellState::Obstacle).then(|| {
+        (self.state[idx] == CellState::Obstacle || self.hidden[idx]).then(|| {
             let b = occ.obstacle_box(idx);
             if b.is_empty() {
                 ObstacleBox::cell(&self.grid, self.grid.cell(idx))
@@ -205,9 +236,10 @@ impl Layers {
         // A column whose box grew may have become an obstacle with no voxel changing state.
         for &c in columns.iter().chain(grown_boxes) {
             let c = c as usize;
-            let (state, surface, seen) = self.column(occ, c);
+            let (state, surface, seen, hidden) = self.column(occ, c);
             self.surface[c] = surface;
             self.seen[c] = seen;
+            self.hidden[c] = hidden;
             self.set_state(c, state, &mut changed);
         }
         for &c in columns.iter().chain(grown_boxes) {
@@ -235,6 +267,10 @@ impl Layers {
                     if self.state[idx] == CellState::Unknown {
                         self.set_state(idx, CellState::Free, &mut changed);
                     }
+                    if self.hidden[idx] {
+                        self.hidden[idx] = false;
+                        self.apply_box(idx, None, &mut changed);
+                    }
                 }
             }
         }
@@ -253,22 +289,33 @@ impl Layers {
     /// Makes `new` the obstacle box that cell `idx` counts with in the inflation and proximity
     /// counters: takes back the old box's counts, if any, and adds the new one's.
     fn apply_box(&mut self, idx: usize, new: Option<ObstacleBox>, changed: &mut Vec<usize>) {
-        let old = self.applied_box[idx];
-        if old == new {
+        let (old, old_hidden) = (self.applied_box[idx], self.applied_hidden[idx]);
+        // A box of a cell that is not an obstacle can only be a hidden cell's.
+        let new_hidden = new.is_some() && self.state[idx] != CellState::Obstacle;
+        if (old, old_hidden) == (new, new_hidden) {
             return;
         }
         if let Some(b) = old {
-            self.count_box(idx, &b, false, changed);
+            self.count_box(idx, &b, false, old_hidden, changed);
         }
         if let Some(b) = new {
-            self.count_box(idx, &b, true, changed);
+            self.count_box(idx, &b, true, new_hidden, changed);
         }
         self.applied_box[idx] = new;
+        self.applied_hidden[idx] = new_hidden;
     }
 
     /// Adds (or removes) box `b` of cell `idx` to the counters of the cells whose centres lie within
-    /// the inflation and proximity radii of it. Cells whose inflation flips are pushed onto `changed`.
-    fn count_box(&mut self, idx: usize, b: &ObstacleBox, add: bool, changed: &mut Vec<usize>) {
+    /// the inflation and proximity radii of it (`hidden`: a hidden cell's box). Cells whose inflation
+    /// by any box or by known obstacles flips are pushed onto `changed`.
+    fn count_box(
+        &mut self,
+        idx: usize,
+        b: &ObstacleBox,
+        add: bool,
+        hidden: bool,
+        changed: &mut Vec<usize>,
+    ) {
         let cell = self.grid.cell(idx);
         for &(dx, dy) in &self.reach_offsets {
             let nc = Cell::new(cell.x + dx, cell.y + dy);
@@ -287,26 +334,37 @@ impl Layers {
             if d2 > self.inflation_radius2 {
                 continue;
             }
+            let before = (self.inflation[n] > 0, self.obstacle_inflated(n));
             if add {
                 self.inflation[n] += 1;
-                if self.inflation[n] == 1 {
-                    changed.push(n);
-                }
+                self.hidden_inflation[n] += u32::from(hidden);
             } else {
                 self.inflation[n] -= 1;
-                if self.inflation[n] == 0 {
-                    changed.push(n);
-                }
+                self.hidden_inflation[n] -= u32::from(hidden);
+            }
+            if before != (self.inflation[n] > 0, self.obstacle_inflated(n)) {
+                changed.push(n);
             }
         }
+    }
+
+    /// Whether cell `idx` lies within the inflation radius of a known obstacle (not only of hidden
+    /// cells).
+    fn obstacle_inflated(&self, idx: usize) -> bool {
+        self.inflation[idx] > self.hidden_inflation[idx]
     }
 
     fn is_traversable_now(&self, idx: usize) -> bool {
         self.state[idx] == CellState::Free && self.inflation[idx] == 0
     }
 
+    /// A Free cell beside an Unknown one, outside the inflation of known obstacles. In the inflation
+    /// of hidden cells only, the robot cannot stand there, but it can look at it: planners reach such
+    /// a frontier by a look from a distance ([`crate::plan::frontier_visit::distant_view`]). Hidden
+    /// cells' inflation hiding the frontier ended runs `complete` with a room behind a tall
+    /// partition never entered.
     fn is_frontier_now(&self, idx: usize) -> bool {
-        if !self.traversable[idx] {
+        if self.state[idx] != CellState::Free || self.obstacle_inflated(idx) {
             return false;
         }
         let c = self.grid.cell(idx);
@@ -338,41 +396,48 @@ impl Layers {
         }
     }
 
-    /// Numbers of obstacle boxes within the inflation and the proximity radius of cell `idx`'s centre.
-    fn boxes_within(&self, idx: usize) -> (u32, u32) {
+    /// Numbers of obstacle boxes within the inflation radius of cell `idx`'s centre, of those the
+    /// hidden cells' boxes, and of boxes within the proximity radius.
+    fn boxes_within(&self, idx: usize) -> (u32, u32, u32) {
         let c = self.grid.cell(idx);
         let centre = self.grid.center(c);
-        let (mut inflation, mut proximity) = (0, 0);
+        let (mut inflation, mut hidden, mut proximity) = (0, 0, 0);
         for &(dx, dy) in &self.reach_offsets {
             let Some(o) = self.grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
                 continue;
             };
             if let Some(b) = self.applied_box[o] {
                 let d2 = b.distance_squared(centre);
-                inflation += (d2 <= self.inflation_radius2) as u32;
+                let inflates = d2 <= self.inflation_radius2;
+                inflation += inflates as u32;
+                hidden += (inflates && self.applied_hidden[o]) as u32;
                 proximity += (d2 <= self.proximity_radius2) as u32;
             }
         }
-        (inflation, proximity)
+        (inflation, hidden, proximity)
     }
 
     /// Recomputes every layer from the voxels and footprint flags, without the incremental machinery.
     pub fn recompute_all(&mut self, occ: &Occupancy) {
         let n = self.grid.cells();
         for idx in 0..n {
-            let (state, surface, seen) = self.column(occ, idx);
+            let (state, surface, seen, hidden) = self.column(occ, idx);
             self.state[idx] = state;
             self.surface[idx] = surface;
             self.seen[idx] = seen;
+            self.hidden[idx] = hidden;
         }
         // Each cell gathers the obstacle boxes near it (not the boxes scattering counts, as the
         // incremental path does), so that this is an independent check of it.
         for idx in 0..n {
             self.applied_box[idx] = self.box_for(occ, idx);
+            self.applied_hidden[idx] =
+                self.applied_box[idx].is_some() && self.state[idx] != CellState::Obstacle;
         }
         for idx in 0..n {
-            let (inflation, proximity) = self.boxes_within(idx);
+            let (inflation, hidden, proximity) = self.boxes_within(idx);
             self.inflation[idx] = inflation;
+            self.hidden_inflation[idx] = hidden;
             self.proximity[idx] = proximity;
         }
         for idx in 0..n {

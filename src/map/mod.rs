@@ -35,6 +35,8 @@ pub struct MapParams {
     pub map: crate::config::MapConfig,
     pub robot_radius_m: f64,
     pub robot_height_m: f64,
+    /// `camera.mount_height_m`: voxels below it are what a look across a column at eye level shows.
+    pub eye_height_m: f64,
 }
 
 impl From<&Config> for MapParams {
@@ -43,6 +45,7 @@ impl From<&Config> for MapParams {
             map: cfg.map.clone(),
             robot_radius_m: cfg.robot.radius_m,
             robot_height_m: cfg.robot.height_m,
+            eye_height_m: cfg.camera.mount_height_m.get(),
         }
     }
 }
@@ -108,9 +111,16 @@ impl Map {
         self.cell_state(idx) == CellState::Obstacle
     }
 
-    /// Where the obstacle of Obstacle cell `idx` lies (see [`ObstacleBox`]); `None` for other cells.
+    /// Where the obstacle of Obstacle cell `idx` lies (see [`ObstacleBox`]), the whole cell for a
+    /// hidden cell ([`Map::is_hidden`]); `None` for other cells.
     pub fn obstacle_box(&self, idx: usize) -> Option<ObstacleBox> {
         self.layers.obstacle_box(idx)
+    }
+
+    /// Whether Unknown cell `idx` is known only above the camera (looked over, never across at eye
+    /// level): it counts as an obstacle filling the cell.
+    pub fn is_hidden(&self, idx: usize) -> bool {
+        self.layers.is_hidden(idx)
     }
 
     /// The known obstacle surface point nearest `p` within `max_m` (the nearest point of the nearest
@@ -321,7 +331,11 @@ mod tests {
                 assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
                 assert_eq!(scratch.is_near_obstacle(i), map.is_near_obstacle(i));
                 assert_eq!(scratch.obstacle_box(i), map.obstacle_box(i));
-                assert_eq!(map.obstacle_box(i).is_some(), map.is_obstacle(i));
+                assert_eq!(scratch.is_hidden(i), map.is_hidden(i));
+                assert_eq!(
+                    map.obstacle_box(i).is_some(),
+                    map.is_obstacle(i) || map.is_hidden(i)
+                );
             }
         }
         // The room got mapped: most of the wall at x = 0 is obstacle, most of the wall at x = 8 is
@@ -367,6 +381,46 @@ mod tests {
             .iter()
             .all(|s| s.cells.len() >= cfg.map.frontier_min_cells));
         assert!(map.is_unknown(grid.index(Cell::new(0, 0))));
+    }
+
+    #[test]
+    fn floor_seen_only_over_a_cabinet_taller_than_the_camera_counts_as_an_obstacle() {
+        // A cabinet 0.85 m tall (the camera is at 0.6 m) in an open floor, looked at from the west:
+        // rays over its top clear the voxels above the floor behind it, none reaches that floor at
+        // eye level, and its east face is never in view.
+        let cfg = Config::default();
+        let grid = GridSpec::covering(Point2::new(-1.0, -1.0), Point2::new(6.0, 3.0), 1.8, 0.1);
+        let mut mesh = crate::scene::TriMesh::default();
+        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -1.0, -0.1], [6.0, 3.0, 0.0]);
+        crate::sensor::raycast::testing::push_box(&mut mesh, [2.0, 0.5, 0.0], [2.6, 1.5, 0.85]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let cam = DepthCamera::new(&cfg.camera);
+        let mut map = Map::new(grid, &cfg);
+        for x in [0.2, 0.5, 0.8] {
+            map.integrate(&cam.capture(&bvh, Pose2::new(x, 1.0, 0.0)));
+        }
+        let idx = |x: f64, y: f64| grid.index(grid.cell_at(x, y));
+        let behind = idx(2.75, 1.0);
+        assert!(map.is_unknown(behind) && map.is_seen(behind) && map.is_hidden(behind));
+        assert!(
+            map.obstacle_box(behind).is_some(),
+            "a column known only above the camera fills its cell"
+        );
+        assert!(map.is_inflated(idx(2.95, 1.0)));
+        assert!(map
+            .nearest_obstacle_point(grid.center(grid.cell(behind)), 0.01)
+            .is_some());
+        // Free floor beside the hidden cells is still a frontier, though the robot cannot stand
+        // there: something to look at, not a place the map is done with.
+        assert!((0..grid.cells()).any(|i| map.is_frontier(i) && !map.is_traversable(i)));
+        assert!(
+            (0..grid.cells()).all(|i| !map.is_frontier(i) || map.cell_state(i) == CellState::Free)
+        );
+        // Looked at from the east, at eye level, the floor there is known free again.
+        map.integrate(&cam.capture(&bvh, Pose2::new(4.5, 1.0, std::f64::consts::PI)));
+        assert!(!map.is_unknown(behind) && !map.is_obstacle(behind));
+        assert!(map.obstacle_box(behind).is_none());
+        assert!(!map.is_inflated(idx(3.05, 1.0)));
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! Frontier visits, shared by the frontier-driven planners (GREEDY and THP).
+//! Frontier visits, shared by the frontier-driven planners (GREEDY and THP, and NBV-TSP's looks at
+//! frontiers before `Complete`).
 //!
 //! A forward camera cannot see the floor right in front of it, so a frontier is approached in two
 //! tries: first the robot stops `view_m` short of it (along the path) and turns once in place to look
@@ -276,8 +277,9 @@ pub fn blind_zone_viewpoint(
 /// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from which
 /// the camera can see the lowest unknown voxel of an Unknown column beside it: in its vertical field
 /// of view and range, through no occupied voxel of the map. Where no cell of that ring does, the
-/// least-cost cell within the camera's depth range of `aim` that sees any unknown voxel of those
-/// columns.
+/// least-cost cell within the camera's depth range of `aim` that sees such a voxel, and failing that
+/// one that sees any unknown voxel of those columns (a look at the upper voxels alone leaves the
+/// column Unknown, and its second look gave the frontier up).
 ///
 /// The lowest voxel is what keeps the column Unknown (a column is known only with its lowest voxel,
 /// `map.column_known_fraction`), and beside a wall or furniture only steep rays from 1–2.5 m reach
@@ -293,10 +295,12 @@ pub fn sighted_viewpoint(
     camera: &CameraConfig,
 ) -> Option<usize> {
     let ring = viewpoint_ring(map, df, aim, view_m, 2.0 * view_m);
-    first_sighted(map, &ring, &lowest_unknown_beside(map, aim), camera).or_else(|| {
+    let lowest = lowest_unknown_beside(map, aim);
+    first_sighted(map, &ring, &lowest, camera).or_else(|| {
         let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
         let wide = viewpoint_ring(map, df, aim, near, far);
-        first_sighted(map, &wide, &unknown_beside(map, aim), camera)
+        first_sighted(map, &wide, &lowest, camera)
+            .or_else(|| first_sighted(map, &wide, &unknown_beside(map, aim), camera))
     })
 }
 

@@ -31,15 +31,21 @@
 //!   re-checked once a second and the plan is redone as soon as it falls below the cutoff (the
 //!   camera often sees a viewpoint's unknown on the way there); a viewpoint whose gain stays above
 //!   the cutoff after a visit is given up, as is one the robot failed to reach twice.
-//! - Before answering `Complete`, every frontier segment's anchor is tried as a viewpoint, so that
-//!   a random sampler's miss cannot end the run early. The robot looks at the anchor from a cell
-//!   from which the camera sees the floor beside it ([`super::frontier_visit::sighted_viewpoint`]),
-//!   else from the anchor itself: from on top, the camera's blind zone hides that floor, and the
-//!   frontier was left for good. Then each frontier seen through a gap too
-//!   narrow to pass is looked at once from a reachable cell in line of sight
-//!   ([`super::frontier_visit::distant_view`], shared with GREEDY and THP).
+//! - Before answering `Complete`, every frontier segment is tried as a viewpoint, so that a random
+//!   sampler's miss cannot end the run early. The robot aims at the segment's least-cost cell not
+//!   given up and looks at it from a cell from which the camera sees the floor beside it
+//!   ([`super::frontier_visit::sighted_viewpoint`]), else from the cell itself: from on top, the
+//!   camera's blind zone hides that floor, and the frontier was left for good. A cell is given up
+//!   by GREEDY's and THP's rules ([`super::frontier_visit::FrontierVisits`]): after a look from
+//!   where the camera could see it, a second look, or two failed approaches. (Giving up every cell
+//!   within the sampling radius of a reached anchor ended 29 of 99 runs on real plans `complete`
+//!   with frontiers left.) Then each frontier seen through a gap too narrow to pass is looked at
+//!   once from a reachable cell in line of sight ([`super::frontier_visit::distant_view`], shared
+//!   with GREEDY and THP).
 
-use super::frontier_visit::{distant_view, follow_to, line_of_sight, sighted_viewpoint};
+use super::frontier_visit::{
+    distant_view, follow_to, line_of_sight, sighted_viewpoint, FrontierVisits, Visit,
+};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::view_gain::GainModel;
 use super::{Action, Count, Plan, PlanContext, Planner};
@@ -103,9 +109,9 @@ struct Viewpoint {
     yaw: f64,
     /// Floor cells in its predicted observation (MarkCovered).
     covered: Vec<u32>,
-    /// For a viewpoint tried before answering `Complete` (see the module doc), the frontier anchor
-    /// it looks at: kept whatever its gain until reached or no frontier is left near the anchor.
-    fallback: Option<usize>,
+    /// For a viewpoint tried before answering `Complete` (see the module doc), the frontier it looks
+    /// at: kept whatever its gain until reached or no frontier is left near the aimed cell.
+    fallback: Option<Visit>,
 }
 
 /// The NBV-TSP planner.
@@ -121,8 +127,12 @@ pub struct Nbv {
     path_cells: Vec<usize>,
     /// Cells given up as viewpoints (unreachable, or the gain did not drop after a visit).
     given_up: Vec<bool>,
-    /// Cells near a fallback anchor the robot already reached: not tried as anchors again.
+    /// Frontier cells looked at through a gap (or that the robot failed to reach twice for that look):
+    /// not looked at that way again.
     anchor_done: Vec<bool>,
+    /// The looks at frontiers before `Complete`, with GREEDY's and THP's rules for when a frontier is
+    /// given up (a look from where the camera could see it, or a second look).
+    visits: FrontierVisits,
     attempts: BTreeMap<usize, u32>,
     /// A look through a gap in progress: the aimed frontier cell and its segment's cells.
     distant: Option<(usize, Vec<usize>)>,
@@ -165,6 +175,7 @@ impl Nbv {
             path_cells: Vec::new(),
             given_up: Vec::new(),
             anchor_done: Vec::new(),
+            visits: FrontierVisits::default(),
             attempts: BTreeMap::new(),
             distant: None,
             target_seen: false,
@@ -273,6 +284,7 @@ impl Nbv {
             self.given_up = vec![false; grid.cells()];
             self.anchor_done = vec![false; grid.cells()];
         }
+        self.visits.ensure(&grid);
         self.tsp_ms = None;
         self.target = None;
         self.distant = None;
@@ -346,13 +358,21 @@ impl Nbv {
         // (shared with GREEDY and THP), else from the anchor itself.
         if self.viewpoints.is_empty() {
             for seg in map.frontiers() {
-                let aim = grid.index(seg.anchor);
                 if self.viewpoints.len() >= self.cfg.max_viewpoints {
                     break;
                 }
-                if self.anchor_done[aim] || self.given_up[aim] || df.cost_to(aim).is_none() {
+                // The least-cost cell of the segment not given up, as GREEDY and THP aim.
+                let Some(aim) = seg
+                    .cells
+                    .iter()
+                    .map(|c| grid.index(*c))
+                    .filter(|&i| !self.visits.is_unobservable(i) && !self.given_up[i])
+                    .filter_map(|i| df.cost_to(i).map(|d| (d, i)))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(_, i)| i)
+                else {
                     continue;
-                }
+                };
                 let cell =
                     sighted_viewpoint(map, &df, aim, self.view_m, &ctx.cfg.camera).unwrap_or(aim);
                 let pos = grid.center(grid.cell(cell));
@@ -366,7 +386,11 @@ impl Nbv {
                     gain: g.volume_m3.max(self.cfg.gain_cutoff_m3).max(1e-6),
                     yaw: g.yaw,
                     covered: Vec::new(),
-                    fallback: Some(aim),
+                    fallback: Some(Visit {
+                        target: seg.cells.clone(),
+                        aim,
+                        near_view: true,
+                    }),
                 });
             }
         }
@@ -477,10 +501,10 @@ impl Planner for Nbv {
         if self.steps_since_check >= RECHECK_STEPS {
             self.steps_since_check = 0;
             if let Some(vp) = self.target.and_then(|k| self.viewpoints.get(k)) {
-                if let Some(aim) = vp.fallback {
-                    // Outdated once no frontier is left within the sampling radius of its anchor.
+                if let Some(visit) = &vp.fallback {
+                    // Outdated once no frontier is left within the sampling radius of its aim.
                     let grid = ctx.map.grid();
-                    let at = grid.center(grid.cell(aim));
+                    let at = grid.center(grid.cell(visit.aim));
                     let seen = !frontier_near(ctx.map, at, self.cfg.sample_radius_m);
                     self.target_seen = seen;
                     return seen;
@@ -516,17 +540,16 @@ impl Planner for Nbv {
             return;
         }
         let cell = self.viewpoints[k].cell;
-        if let (true, Some(aim)) = (reached, self.viewpoints[k].fallback) {
-            self.stats.anchors_visited.add(1.0);
-            let grid = ctx.map.grid();
-            let r = (self.cfg.sample_radius_m / grid.res).ceil() as i32;
-            let c = grid.cell(aim);
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    if let Some(i) = grid.checked_index(crate::Cell::new(c.x + dx, c.y + dy)) {
-                        self.anchor_done[i] = true;
-                    }
-                }
+        if let Some(visit) = self.viewpoints[k].fallback.clone() {
+            // Given up: the cells this look could see, any cell on its second look, and the cells
+            // near an aim the robot failed to reach twice (shared with GREEDY and THP). Marking
+            // everything within the sampling radius of a reached anchor done ended runs `complete`
+            // with frontiers whose floor the look had not shown.
+            if reached {
+                self.stats.anchors_visited.add(1.0);
+            }
+            if reached || !self.target_seen {
+                self.visits.finished_in(ctx, &visit, reached);
             }
             self.viewpoints.remove(k);
         } else if reached {
