@@ -286,12 +286,17 @@ impl Layers {
         }
     }
 
+    /// Whether `b`, the box cell `idx` counts with, is a hidden cell's: a box of a cell that is not an
+    /// obstacle can only be.
+    fn is_hidden_box(&self, idx: usize, b: Option<ObstacleBox>) -> bool {
+        b.is_some() && self.state[idx] != CellState::Obstacle
+    }
+
     /// Makes `new` the obstacle box that cell `idx` counts with in the inflation and proximity
     /// counters: takes back the old box's counts, if any, and adds the new one's.
     fn apply_box(&mut self, idx: usize, new: Option<ObstacleBox>, changed: &mut Vec<usize>) {
         let (old, old_hidden) = (self.applied_box[idx], self.applied_hidden[idx]);
-        // A box of a cell that is not an obstacle can only be a hidden cell's.
-        let new_hidden = new.is_some() && self.state[idx] != CellState::Obstacle;
+        let new_hidden = self.is_hidden_box(idx, new);
         if (old, old_hidden) == (new, new_hidden) {
             return;
         }
@@ -359,10 +364,10 @@ impl Layers {
     }
 
     /// A Free cell beside an Unknown one, outside the inflation of known obstacles. In the inflation
-    /// of hidden cells only, the robot cannot stand there, but it can look at it: planners reach such
-    /// a frontier by a look from a distance ([`crate::plan::frontier_visit::distant_view`]). Hidden
-    /// cells' inflation hiding the frontier ended runs `complete` with a room behind a tall
-    /// partition never entered.
+    /// of hidden cells only, the robot cannot stand there but could look at it, so it stays a
+    /// frontier: the searches do not reach it, and a run that ends without looking at it reports it
+    /// among the frontiers left. Hidden cells' inflation hiding the frontier ended runs `complete`
+    /// with a room behind a tall partition never entered and nothing reported.
     fn is_frontier_now(&self, idx: usize) -> bool {
         if self.state[idx] != CellState::Free || self.obstacle_inflated(idx) {
             return false;
@@ -431,8 +436,7 @@ impl Layers {
         // incremental path does), so that this is an independent check of it.
         for idx in 0..n {
             self.applied_box[idx] = self.box_for(occ, idx);
-            self.applied_hidden[idx] =
-                self.applied_box[idx].is_some() && self.state[idx] != CellState::Obstacle;
+            self.applied_hidden[idx] = self.is_hidden_box(idx, self.applied_box[idx]);
         }
         for idx in 0..n {
             let (inflation, hidden, proximity) = self.boxes_within(idx);

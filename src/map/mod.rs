@@ -383,17 +383,31 @@ mod tests {
         assert!(map.is_unknown(grid.index(Cell::new(0, 0))));
     }
 
+    /// A floor from (-1, -1) to `max` (x, y) with `boxes` (min and max corners) on it, and a 0.1 m
+    /// grid over it up to 1.8 m.
+    fn floor_with_boxes(max: [f32; 2], boxes: &[([f32; 3], [f32; 3])]) -> (GridSpec, MeshBvh) {
+        let grid = GridSpec::covering(
+            Point2::new(-1.0, -1.0),
+            Point2::new(f64::from(max[0]), f64::from(max[1])),
+            1.8,
+            0.1,
+        );
+        let mut mesh = crate::scene::TriMesh::default();
+        let push_box = crate::sensor::raycast::testing::push_box;
+        push_box(&mut mesh, [-1.0, -1.0, -0.1], [max[0], max[1], 0.0]);
+        for &(lo, hi) in boxes {
+            push_box(&mut mesh, lo, hi);
+        }
+        (grid, MeshBvh::new(&mesh).unwrap())
+    }
+
     #[test]
     fn floor_seen_only_over_a_cabinet_taller_than_the_camera_counts_as_an_obstacle() {
         // A cabinet 0.85 m tall (the camera is at 0.6 m) in an open floor, looked at from the west:
         // rays over its top clear the voxels above the floor behind it, none reaches that floor at
         // eye level, and its east face is never in view.
         let cfg = Config::default();
-        let grid = GridSpec::covering(Point2::new(-1.0, -1.0), Point2::new(6.0, 3.0), 1.8, 0.1);
-        let mut mesh = crate::scene::TriMesh::default();
-        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -1.0, -0.1], [6.0, 3.0, 0.0]);
-        crate::sensor::raycast::testing::push_box(&mut mesh, [2.0, 0.5, 0.0], [2.6, 1.5, 0.85]);
-        let bvh = MeshBvh::new(&mesh).unwrap();
+        let (grid, bvh) = floor_with_boxes([6.0, 3.0], &[([2.0, 0.5, 0.0], [2.6, 1.5, 0.85])]);
         let cam = DepthCamera::new(&cfg.camera);
         let mut map = Map::new(grid, &cfg);
         for x in [0.2, 0.5, 0.8] {
@@ -427,12 +441,13 @@ mod tests {
     fn a_075_m_corridor_stays_passable_and_clearance_is_measured_to_the_walls() {
         // Floor plus two walls 0.75 m apart, faces at y = 0.02 and y = 0.77 (not on cell edges).
         let cfg = Config::default();
-        let grid = GridSpec::covering(Point2::new(-1.0, -1.0), Point2::new(5.0, 2.0), 1.8, 0.1);
-        let mut mesh = crate::scene::TriMesh::default();
-        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -1.0, -0.1], [5.0, 2.0, 0.0]);
-        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, -0.1, 0.0], [5.0, 0.02, 2.0]);
-        crate::sensor::raycast::testing::push_box(&mut mesh, [-1.0, 0.77, 0.0], [5.0, 0.9, 2.0]);
-        let bvh = MeshBvh::new(&mesh).unwrap();
+        let (grid, bvh) = floor_with_boxes(
+            [5.0, 2.0],
+            &[
+                ([-1.0, -0.1, 0.0], [5.0, 0.02, 2.0]),
+                ([-1.0, 0.77, 0.0], [5.0, 0.9, 2.0]),
+            ],
+        );
         let cam = DepthCamera::new(&cfg.camera);
         let mut map = Map::new(grid, &cfg);
         for x in [0.0, 0.5, 1.0, 1.5] {

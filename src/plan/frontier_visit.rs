@@ -80,6 +80,20 @@ impl FrontierVisits {
         self.unobservable.get(cell).copied().unwrap_or(false)
     }
 
+    /// The least-cost cell of `cells` (flat indices) that `df` reaches and that was not given up,
+    /// with its cost; ties go to the lower index. Where THP and NBV-TSP aim in a frontier segment.
+    pub fn cheapest_open(
+        &self,
+        cells: impl IntoIterator<Item = usize>,
+        df: &DistanceField,
+    ) -> Option<(f32, usize)> {
+        cells
+            .into_iter()
+            .filter(|&i| !self.is_unobservable(i))
+            .filter_map(|i| df.cost_to(i).map(|d| (d, i)))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+    }
+
     /// Whether the frontier cell is next looked at from a viewpoint chosen to see it
     /// ([`sighted_viewpoint`]): it survived a look from a distance and one from on top of it, or it
     /// lay in the blind zone during its first look.

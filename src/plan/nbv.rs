@@ -37,9 +37,10 @@
 //!   ([`super::frontier_visit::sighted_viewpoint`]), else from the cell itself: from on top, the
 //!   camera's blind zone hides that floor, and the frontier was left for good. A cell is given up
 //!   by GREEDY's and THP's rules ([`super::frontier_visit::FrontierVisits`]): after a look from
-//!   where the camera could see it, a second look, or two failed approaches. (Giving up every cell
-//!   within the sampling radius of a reached anchor ended 29 of 99 runs on real plans `complete`
-//!   with frontiers left.) Then each frontier seen through a gap too narrow to pass is looked at
+//!   where the camera could see it, a second look, or two failed approaches. (With every cell
+//!   within the sampling radius of a reached anchor given up instead, 29 of 99 runs on real plans
+//!   ended `complete` with frontiers left; 15 with these rules, BENCHMARKS.md, "Columns known only
+//!   above the camera".) Then each frontier seen through a gap too narrow to pass is looked at
 //!   once from a reachable cell in line of sight ([`super::frontier_visit::distant_view`], shared
 //!   with GREEDY and THP).
 
@@ -129,7 +130,7 @@ pub struct Nbv {
     given_up: Vec<bool>,
     /// Frontier cells looked at through a gap (or that the robot failed to reach twice for that look):
     /// not looked at that way again.
-    anchor_done: Vec<bool>,
+    distant_done: Vec<bool>,
     /// The looks at frontiers before `Complete`, with GREEDY's and THP's rules for when a frontier is
     /// given up (a look from where the camera could see it, or a second look).
     visits: FrontierVisits,
@@ -174,7 +175,7 @@ impl Nbv {
             target: None,
             path_cells: Vec::new(),
             given_up: Vec::new(),
-            anchor_done: Vec::new(),
+            distant_done: Vec::new(),
             visits: FrontierVisits::default(),
             attempts: BTreeMap::new(),
             distant: None,
@@ -282,7 +283,7 @@ impl Nbv {
         let map = ctx.map;
         if self.given_up.len() != grid.cells() {
             self.given_up = vec![false; grid.cells()];
-            self.anchor_done = vec![false; grid.cells()];
+            self.distant_done = vec![false; grid.cells()];
         }
         self.visits.ensure(&grid);
         self.tsp_ms = None;
@@ -351,26 +352,23 @@ impl Nbv {
                 covered[free] = true;
             }
         }
-        // Before giving up, every reachable frontier segment's anchor not yet visited is tried, at
+        // Before giving up, every reachable frontier segment with a cell not given up is tried, at
         // any gain: unknown floor in the camera's blind zone can close a narrow passage (it is
         // passable only near the robot), and no viewpoint short of it predicts any gain. The robot
-        // looks at the anchor from where the camera sees the floor beside it, if anywhere does
-        // (shared with GREEDY and THP), else from the anchor itself.
+        // looks at that cell from where the camera sees the floor beside it, if anywhere does
+        // (shared with GREEDY and THP), else from the cell itself.
         if self.viewpoints.is_empty() {
             for seg in map.frontiers() {
                 if self.viewpoints.len() >= self.cfg.max_viewpoints {
                     break;
                 }
-                // The least-cost cell of the segment not given up, as GREEDY and THP aim.
-                let Some(aim) = seg
+                // The least-cost cell of the segment not given up, as THP aims.
+                let open = seg
                     .cells
                     .iter()
                     .map(|c| grid.index(*c))
-                    .filter(|&i| !self.visits.is_unobservable(i) && !self.given_up[i])
-                    .filter_map(|i| df.cost_to(i).map(|d| (d, i)))
-                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-                    .map(|(_, i)| i)
-                else {
+                    .filter(|&i| !self.given_up[i]);
+                let Some((_, aim)) = self.visits.cheapest_open(open, &df) else {
                     continue;
                 };
                 let cell =
@@ -404,7 +402,7 @@ impl Nbv {
                 .iter()
                 .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
                 .collect();
-            let done = |i: usize| self.anchor_done[i] || self.given_up[i];
+            let done = |i: usize| self.distant_done[i] || self.given_up[i];
             let view_m = self.view_m;
             let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
                 return Ok(Action::Complete);
@@ -528,7 +526,7 @@ impl Planner for Nbv {
             *a += u32::from(!reached);
             if reached || *a >= MAX_ATTEMPTS {
                 for i in cells {
-                    self.anchor_done[i] = true;
+                    self.distant_done[i] = true;
                 }
             }
             return;

@@ -45,13 +45,9 @@ impl Thp {
         let mut nearest_near: Option<Frontier> = None;
         let mut cells = Vec::with_capacity(segments.len());
         for (k, seg) in segments.iter().enumerate() {
-            let best = seg
-                .cells
-                .iter()
-                .map(|c| grid.index(*c))
-                .filter(|&i| !self.visits.is_unobservable(i))
-                .filter_map(|i| df.cost_to(i).map(|d| (d, i)))
-                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let best = self
+                .visits
+                .cheapest_open(seg.cells.iter().map(|c| grid.index(*c)), df);
             cells.push(seg.cells.iter().map(|c| grid.index(*c)).collect());
             let Some((cost, aim)) = best else { continue };
             let f = Frontier {
