@@ -63,6 +63,7 @@ impl Planner for NearestCell {
         Ok(Action::Follow {
             path: path.cells.iter().map(|c| grid.center(*c)).collect(),
             look_on_arrival: true,
+            exact_arrival: false,
         }
         .into())
     }

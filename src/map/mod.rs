@@ -187,6 +187,36 @@ impl Map {
         best
     }
 
+    /// Whether no Unknown cell comes within `radius` of `p`: a disc there stands on floor the camera
+    /// has seen (Free cells, or obstacles, which the guard keeps it off). An Unknown cell may hold a
+    /// low object no ray has hit.
+    pub fn disc_over_seen_floor(&self, p: Point2<f64>, radius: f64) -> bool {
+        let grid = self.grid();
+        let c = grid.cell_at(p.x, p.y);
+        let r = (radius / grid.res).ceil() as i32 + 1;
+        let half = 0.5 * grid.res;
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let n = Cell::new(c.x + dx, c.y + dy);
+                let Some(i) = grid.checked_index(n) else {
+                    continue;
+                };
+                if !self.is_unknown(i) {
+                    continue;
+                }
+                let centre = grid.center(n);
+                let q = Point2::new(
+                    p.x.clamp(centre.x - half, centre.x + half),
+                    p.y.clamp(centre.y - half, centre.y + half),
+                );
+                if (q - p).norm_squared() < radius * radius {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
     /// Within the inflation radius (robot radius + margin) of a known obstacle's box.
     pub fn is_inflated(&self, idx: usize) -> bool {
         self.layers.is_inflated(idx)

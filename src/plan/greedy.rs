@@ -125,7 +125,7 @@ impl Greedy {
                         return Ok(Action::Complete);
                     };
                     let action;
-                    (action, self.path_cells) = follow_to(&grid, &df, view.cell, true);
+                    (action, self.path_cells) = follow_to(&grid, &df, view.cell, true, false);
                     return Ok(action);
                 };
                 self.distant_views.add(1.0);
@@ -135,7 +135,7 @@ impl Greedy {
                     near_view: true,
                 });
                 let action;
-                (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true);
+                (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true, true);
                 return Ok(action);
             };
             self.visit = Some(Visit {
@@ -147,7 +147,7 @@ impl Greedy {
                 return Ok(Action::LookAround);
             };
             let action;
-            (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival);
+            (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival, true);
             return Ok(action);
         };
         if self.visits.needs_viewpoint(goal) {
@@ -167,7 +167,7 @@ impl Greedy {
                 Some(v) => {
                     self.visit = Some(visit);
                     let action;
-                    (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival);
+                    (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival, true);
                     return Ok(action);
                 }
                 None => self.visits.no_viewpoint(&grid, &visit),
@@ -187,6 +187,7 @@ impl Greedy {
         Ok(Action::Follow {
             path: cells.iter().map(|c| grid.center(*c)).collect(),
             look_on_arrival,
+            exact_arrival: false,
         })
     }
 }

@@ -224,14 +224,23 @@ pub fn path_length(line: &[Point2<f64>]) -> f64 {
     line.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
 
+/// How near the end of its path a robot following an `exact_arrival` action stops, metres.
+pub const EXACT_ARRIVAL_M: f64 = 0.05;
+
 /// What the robot should do next.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Action {
     /// Follow `path` (world points, the first near the robot) to its end; then, if `look_on_arrival`,
     /// turn once in place.
+    ///
+    /// The robot counts as arrived within `motion.goal_tolerance_m` of the end. With `exact_arrival`
+    /// it drives on to within [`EXACT_ARRIVAL_M`] where its disc stays over seen floor (no Unknown
+    /// cell under it): for a viewpoint chosen to see one voxel, 0.2 m off the cell centre is often
+    /// out of sight of it, and the frontier was given up with the voxel unseen.
     Follow {
         path: Vec<Point2<f64>>,
         look_on_arrival: bool,
+        exact_arrival: bool,
     },
     /// Turn once in place where the robot stands.
     LookAround,

@@ -410,7 +410,7 @@ impl Nbv {
             self.stats.distant_views.add(1.0);
             self.distant = Some((view.aim, segments[view.segment].clone()));
             let action;
-            (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true);
+            (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true, true);
             return Ok(action);
         }
 
@@ -473,6 +473,8 @@ impl Nbv {
         Ok(Action::Follow {
             path: path.cells.iter().map(|c| grid.center(*c)).collect(),
             look_on_arrival: true,
+            // A look at a frontier anchor aims at one voxel (see `sighted_viewpoint`).
+            exact_arrival: self.viewpoints[k].fallback.is_some(),
         })
     }
 }

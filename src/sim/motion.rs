@@ -4,7 +4,7 @@
 use super::robot::Command;
 use crate::config::{Config, MotionConfig, RobotConfig};
 use crate::map::Map;
-use crate::plan::Action;
+use crate::plan::{Action, EXACT_ARRIVAL_M};
 use crate::util::wrap_angle;
 use crate::Pose2;
 use nalgebra::{Point2, Vector2};
@@ -28,6 +28,10 @@ enum Phase {
         /// Index of the path point the robot has progressed to.
         progress: usize,
         look_on_arrival: bool,
+        /// Drive on past the goal tolerance where it is safe (see [`Action::Follow`]); the steps
+        /// spent within the goal tolerance so far.
+        exact_arrival: bool,
+        steps_near_goal: u32,
         /// Tracking the path itself rather than pure pursuit, after the guard tripped near a corner;
         /// until the clearance is back.
         tight: bool,
@@ -65,6 +69,9 @@ pub struct MotionExecutor {
     guard_clearance: f64,
 }
 
+/// Most steps spent driving from the goal tolerance to the exact end of an `exact_arrival` path
+/// (3 s at the default step): pure pursuit can circle a point it reaches at an angle.
+const EXACT_APPROACH_STEPS: u32 = 30;
 /// Gain of the proportional heading controller, 1/s.
 const HEADING_GAIN: f64 = 2.0;
 /// Heading error under which the robot counts as facing its look-ahead point, radians.
@@ -134,10 +141,13 @@ impl MotionExecutor {
             Action::Follow {
                 path,
                 look_on_arrival,
+                exact_arrival,
             } if !path.is_empty() => Phase::Following {
                 path: path.clone(),
                 progress: 0,
                 look_on_arrival: *look_on_arrival,
+                exact_arrival: *exact_arrival,
+                steps_near_goal: 0,
                 tight: false,
             },
             Action::Follow { .. } | Action::Complete | Action::Stuck => Phase::Idle,
@@ -261,6 +271,8 @@ impl MotionExecutor {
             path,
             progress,
             look_on_arrival,
+            exact_arrival,
+            steps_near_goal,
             tight,
         } = &mut self.phase
         else {
@@ -268,7 +280,19 @@ impl MotionExecutor {
         };
         let here = pose.position();
         let goal = *path.last().expect("non-empty path");
-        if (goal - here).norm() <= self.goal_tolerance {
+        let to_goal = (goal - here).norm();
+        let arrived = to_goal <= self.goal_tolerance && {
+            *steps_near_goal += 1;
+            // Driving on to the exact end: only while the disc stays over seen floor, both where it
+            // stands and at the end (a low object in an Unknown cell is invisible to the guard),
+            // and for a few seconds at most.
+            !*exact_arrival
+                || to_goal <= EXACT_ARRIVAL_M
+                || *steps_near_goal > EXACT_APPROACH_STEPS
+                || !map.disc_over_seen_floor(here, self.radius)
+                || !map.disc_over_seen_floor(goal, self.radius)
+        };
+        if arrived {
             self.phase = if *look_on_arrival {
                 Phase::Looking { turned_rad: 0.0 }
             } else {
@@ -318,11 +342,15 @@ impl MotionExecutor {
         } else {
             1.0
         };
-        let to_goal = (goal - here).norm();
         let v = self.max_speed * err.cos().max(0.0) * slow * (to_goal / 0.5).min(1.0);
         let next = super::robot::integrate(pose, v, w, self.dt);
         let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
         if next_clearance < self.guard_clearance && next_clearance < clearance {
+            if to_goal <= self.goal_tolerance {
+                // Already arrived by the goal tolerance: the exact end is not worth a detour.
+                *exact_arrival = false;
+                return self.follow(pose, map);
+            }
             // Moving on would bring the disc closer to a hazard than is safe: track tightly.
             *tight = true;
             return self.follow(pose, map);
@@ -407,9 +435,25 @@ mod tests {
     use crate::sensor::MeshBvh;
     use std::f64::consts::PI;
 
+    /// Places the robot looked around from in [`room_and_corridor`]: two in the room, four along
+    /// the corridor.
+    const ROOM_AND_CORRIDOR_SPOTS: [(f64, f64); 6] = [
+        (1.1, 1.0),
+        (3.0, 1.0),
+        (1.1, 2.4),
+        (2.5, 2.4),
+        (4.0, 2.4),
+        (5.5, 2.4),
+    ];
+
     /// A room (y < 1.9) and a 0.8 m corridor along its top (y 2.0–2.8), joined by a 0.8 m door
     /// (x 0.7–1.5) in the wall between them; the map is built from looks around in both.
     fn room_and_corridor(cfg: &Config) -> (Map, MeshBvh) {
+        room_and_corridor_seen_from(cfg, &ROOM_AND_CORRIDOR_SPOTS)
+    }
+
+    /// [`room_and_corridor`] with the map built from looks around at `spots` only.
+    fn room_and_corridor_seen_from(cfg: &Config, spots: &[(f64, f64)]) -> (Map, MeshBvh) {
         let mut mesh = TriMesh::default();
         push_box(&mut mesh, [0.0, 0.0, 0.0], [6.0, 2.9, 2.5]);
         push_box(&mut mesh, [0.0, 1.9, 0.0], [0.7, 2.0, 2.5]);
@@ -421,19 +465,11 @@ mod tests {
             cfg.map.band_max_m,
             cfg.map.voxel_m,
         );
-        let spots = [
-            (1.1, 1.0),
-            (3.0, 1.0),
-            (1.1, 2.4),
-            (2.5, 2.4),
-            (4.0, 2.4),
-            (5.5, 2.4),
-        ];
         let looks = spots
             .iter()
             .flat_map(|&(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * PI / 8.0)));
         let mut map = seen_from(grid, cfg, &bvh, looks);
-        for (x, y) in spots {
+        for &(x, y) in spots {
             map.clear_footprint(x, y, cfg.robot.radius_m);
         }
         (map, bvh)
@@ -488,6 +524,7 @@ mod tests {
         exec.start(&Action::Follow {
             path,
             look_on_arrival: false,
+            exact_arrival: false,
         });
         let pose = Pose2::new(start.x, start.y, PI / 2.0);
         let (pose, status) = drive(&cfg, &mut exec, &map, &bvh, pose, 2000);
@@ -497,6 +534,71 @@ mod tests {
 
     /// Two 0.4 m wide boxes, one from y = 0 to `lower_top`, one from `upper_bottom` to y = 1 (x 0.8–1.2,
     /// 1 m tall), mapped from looks around on all four sides.
+    /// Follows the A* path from `start` to `goal` in `map` with or without `exact_arrival`; the
+    /// robot's distance from `goal` when the action ends `Done`.
+    fn arrival_distance(
+        cfg: &Config,
+        map: &Map,
+        bvh: &MeshBvh,
+        start: Point2<f64>,
+        goal: Point2<f64>,
+        exact_arrival: bool,
+    ) -> f64 {
+        let grid = *map.grid();
+        let cell = |p: Point2<f64>| grid.index(grid.cell_of(p).unwrap());
+        let path = Search::new(&grid)
+            .astar(
+                &grid,
+                |i| crate::plan::step_cost(map, &cfg.search, start, i),
+                cell(start),
+                cell(goal),
+            )
+            .expect("reachable");
+        let path: Vec<Point2<f64>> = path.cells.iter().map(|c| grid.center(*c)).collect();
+        let goal = *path.last().unwrap();
+        let mut exec = MotionExecutor::new(&MotionParams::from(cfg));
+        exec.start(&Action::Follow {
+            path,
+            look_on_arrival: false,
+            exact_arrival,
+        });
+        let d = goal - start;
+        let pose = Pose2::new(start.x, start.y, d.y.atan2(d.x));
+        let (pose, status) = drive(cfg, &mut exec, map, bvh, pose, 2000);
+        assert_eq!(status, MotionStatus::Done, "stopped at {pose:?}");
+        (pose.position() - goal).norm()
+    }
+
+    #[test]
+    fn an_exact_arrival_drives_on_to_the_end_only_over_seen_floor() {
+        let cfg = Config::default();
+        let (map, bvh) = room_and_corridor(&cfg);
+        let (tolerance, r) = (cfg.motion.goal_tolerance_m, cfg.robot.radius_m);
+        let start = Point2::new(3.0, 1.0);
+        // Between two spots the robot looked around from: seen floor all the way.
+        let seen_goal = Point2::new(1.1, 1.0);
+        assert!(map.disc_over_seen_floor(seen_goal, r));
+        let plain = arrival_distance(&cfg, &map, &bvh, start, seen_goal, false);
+        assert!(plain > EXACT_ARRIVAL_M && plain <= tolerance, "{plain}");
+        let exact = arrival_distance(&cfg, &map, &bvh, start, seen_goal, true);
+        assert!(exact <= EXACT_ARRIVAL_M, "{exact}");
+        // Looks from the start only leave its blind zone unseen: at a traversable cell with an Unknown cell
+        // under the disc, the goal tolerance stands.
+        let (map, bvh) = room_and_corridor_seen_from(&cfg, &ROOM_AND_CORRIDOR_SPOTS[1..2]);
+        let grid = *map.grid();
+        let beside_unknown = (0..grid.cells())
+            .filter(|&i| map.is_traversable(i))
+            .map(|i| grid.center(grid.cell(i)))
+            .filter(|&p| p.y < 1.9 && !map.disc_over_seen_floor(p, r))
+            .min_by(|a, b| (a - start).norm().total_cmp(&(b - start).norm()))
+            .expect("looks from the start leave unseen floor beside traversable cells");
+        let stopped = arrival_distance(&cfg, &map, &bvh, start, beside_unknown, true);
+        assert!(
+            stopped > EXACT_ARRIVAL_M && stopped <= tolerance,
+            "{stopped}"
+        );
+    }
+
     fn gap_between_boxes(cfg: &Config, lower_top: f32, upper_bottom: f32) -> (Map, MeshBvh) {
         let mut mesh = TriMesh::default();
         push_box(&mut mesh, [0.8, 0.0, 0.0], [1.2, lower_top, 1.0]);
@@ -579,6 +681,7 @@ mod tests {
         exec.start(&Action::Follow {
             path: vec![pose.position(), Point2::new(pose.x, 0.1)],
             look_on_arrival: false,
+            exact_arrival: false,
         });
         let (pose, status) = drive(cfg, exec, map, bvh, pose, 200);
         assert_eq!(status, MotionStatus::Blocked);

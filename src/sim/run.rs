@@ -272,6 +272,7 @@ impl<'a> Simulation<'a> {
             Action::Follow {
                 path: Vec::new(),
                 look_on_arrival: false,
+                exact_arrival: false,
             }
         };
         motion.start(&action);

@@ -116,6 +116,7 @@ impl Tensor {
                 return Ok(Action::Follow {
                     path,
                     look_on_arrival: false,
+                    exact_arrival: false,
                 });
             }
         }
@@ -170,6 +171,7 @@ impl Tensor {
         Ok(Action::Follow {
             path: line,
             look_on_arrival: false,
+            exact_arrival: false,
         })
     }
 

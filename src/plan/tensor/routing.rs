@@ -428,6 +428,7 @@ impl Tensor {
         Routed::Go(Action::Follow {
             path: pts,
             look_on_arrival: false,
+            exact_arrival: false,
         })
     }
 

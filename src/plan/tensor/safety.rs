@@ -32,6 +32,7 @@ impl Tensor {
         Some(Action::Follow {
             path: vec![robot, best],
             look_on_arrival: false,
+            exact_arrival: false,
         })
     }
 
@@ -53,6 +54,7 @@ impl Tensor {
         Some(Action::Follow {
             path: vec![robot, to],
             look_on_arrival: false,
+            exact_arrival: false,
         })
     }
 }

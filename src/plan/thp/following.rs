@@ -166,6 +166,7 @@ impl Thp {
                     return Action::Follow {
                         path: segment,
                         look_on_arrival: reaches_end && goal.look_on_arrival,
+                        exact_arrival: reaches_end && goal.visit.near_view,
                     };
                 }
                 self.stats.advection_fallbacks.add(1.0);
@@ -175,6 +176,7 @@ impl Thp {
         Action::Follow {
             path: goal.path[progress..].to_vec(),
             look_on_arrival: goal.look_on_arrival,
+            exact_arrival: goal.visit.near_view,
         }
     }
 

@@ -161,6 +161,7 @@ impl Thp {
                     return Ok(Choice::Act(Action::Follow {
                         path,
                         look_on_arrival: false,
+                        exact_arrival: false,
                     }));
                 }
                 // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
@@ -191,7 +192,7 @@ impl Thp {
                 if let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, df)) {
                     self.ledger.kind = GoalKind::OutsideTour;
                     self.mode.stop();
-                    let (action, _) = follow_to(&grid, df, view.cell, true);
+                    let (action, _) = follow_to(&grid, df, view.cell, true, false);
                     return Ok(Choice::Act(action));
                 }
                 return Ok(Choice::Act(Action::Complete));
@@ -319,6 +320,7 @@ impl Thp {
         Choice::Act(Action::Follow {
             path,
             look_on_arrival: false,
+            exact_arrival: false,
         })
     }
 
