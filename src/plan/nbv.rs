@@ -473,7 +473,7 @@ impl Nbv {
         Ok(Action::Follow {
             path: path.cells.iter().map(|c| grid.center(*c)).collect(),
             look_on_arrival: true,
-            // A look at a frontier anchor aims at one voxel (see `sighted_viewpoint`).
+            // A look at a frontier cell aims at one voxel (see `sighted_viewpoint`).
             exact_arrival: self.viewpoints[k].fallback.is_some(),
         })
     }

@@ -316,7 +316,8 @@ pub struct FrontiersLeft {
 /// The frontiers a run left that it could have reached and that show observable space: the cells
 /// `map` flags as frontier (free, outside known obstacles' inflation, with a 4-neighbour in state
 /// Unknown) that lie in the ground truth's reachable region and have a 4-neighbour in state Unknown
-/// whose column holds an observable voxel `map` does not know. Returns their number and their largest 8-connected groups.
+/// whose column holds an observable voxel `map` does not know. Returns their number and their
+/// largest 8-connected groups.
 pub fn frontiers_left(gt: &GroundTruth, observable: &ObservableSet, map: &Map) -> FrontiersLeft {
     let grid = gt.grid;
     let (unseen, _) = unseen_columns(gt, observable, map);
