@@ -247,6 +247,9 @@ pub struct SearchConfig {
     pub unknown_is_free: bool,
     pub near_unknown_radius_m: f64,
     pub proximity_cost: f64,
+    /// A frontier in the camera's blind zone around the robot is looked at before a goal farther
+    /// than this by path cost (see `plan::frontier_visit::blind_zone_first`), metres.
+    pub blind_zone_look_first_m: NonNegative,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

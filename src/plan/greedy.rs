@@ -3,8 +3,10 @@
 //! The robot drives toward the frontier segment nearest by path cost (one Dijkstra field from the
 //! robot), stops `view_distance_m` short of it (see [`super::frontier_visit`]), turns once in place to
 //! look into the unknown, and re-plans as soon as its target segment has been seen or its path is
-//! blocked. Frontier cells within `search.near_unknown_radius_m` of the robot are skipped: they border
-//! the camera's blind zone and are seen once the robot moves on. When no reachable frontier is left,
+//! blocked. A frontier cell within `search.near_unknown_radius_m` of the robot lies in the camera's
+//! blind zone: the robot first steps back to where the camera sees it, before driving to a frontier
+//! farther than `search.blind_zone_look_first_m` (not part of Yamauchi's method; see
+//! [`super::frontier_visit::blind_zone_first`]). When no reachable frontier is left,
 //! the robot still looks once at each frontier seen through a gap too narrow to pass, from a reachable
 //! cell in line of sight (see [`super::frontier_visit::distant_view`]), and then, with
 //! `volume_views.enabled` (on by default; not part of Yamauchi's method), drives to each place from
@@ -12,7 +14,8 @@
 //! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
 
 use super::frontier_visit::{
-    blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint, FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint,
+    FrontierVisits, Visit,
 };
 use super::view_gain::VolumeViews;
 use super::{Action, Count, Plan, PlanContext, Planner};
@@ -106,8 +109,11 @@ impl Greedy {
         }
         let look_on_arrival = self.cfg.look_around_on_arrival;
         let view_m = self.cfg.view_distance_m.get();
+        // A frontier in the blind zone comes first, unless the nearest one beyond it is within
+        // `search.blind_zone_look_first_m` (the robot would not drive away from it).
+        let best = best.filter(|b| best_near.is_none() || !blind_zone_first(search_cfg, b.0));
         let Some((_, goal, k)) = best else {
-            // Only frontiers in the blind zone are left: step back to a viewpoint from which the
+            // A frontier in the blind zone is next: step back to a viewpoint from which the
             // camera sees the floor there.
             let Some((_, near_goal, k)) = best_near else {
                 // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
@@ -226,5 +232,47 @@ impl Planner for Greedy {
         if let Some(visit) = self.visit.take() {
             self.visits.finished_in(ctx, &visit, reached);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Config, NonNegative};
+    use crate::map::testing::{furnished_room_setup, seen_from};
+    use crate::plan::search::Search;
+    use crate::plan::PlanParams;
+    use crate::Pose2;
+
+    /// How far from the robot GREEDY's first frontier is, after one look east from (1, 4) in the
+    /// furnished room: the floor behind and beside the robot is still unknown (in the blind zone),
+    /// while frontiers beyond it lie farther east.
+    fn first_aim_from_robot_m(look_first_m: f64) -> f64 {
+        let mut cfg = Config::default();
+        cfg.search.blind_zone_look_first_m = NonNegative::new(look_first_m).unwrap();
+        let (grid, bvh) = furnished_room_setup(&cfg);
+        let pose = Pose2::new(1.0, 4.0, 0.0);
+        let map = seen_from(grid, &cfg, &bvh, [pose]);
+        let params = PlanParams::from(&cfg);
+        let mut search = Search::new(&grid);
+        let mut greedy = Greedy::new(&cfg.greedy, None);
+        let mut ctx = PlanContext {
+            map: &map,
+            pose,
+            time_s: 0.0,
+            cfg: &params,
+            search: &mut search,
+        };
+        greedy.next_action(&mut ctx).unwrap();
+        let aim = greedy.visit.as_ref().expect("a frontier to visit").aim;
+        (grid.center(grid.cell(aim)) - pose.position()).norm()
+    }
+
+    #[test]
+    fn a_frontier_in_the_blind_zone_is_looked_at_before_a_farther_one() {
+        let blind_zone_m = Config::default().search.near_unknown_radius_m;
+        assert!(first_aim_from_robot_m(0.0) <= blind_zone_m);
+        // With a threshold beyond every goal's cost, the blind zone waits until nothing else is left.
+        assert!(first_aim_from_robot_m(1e3) > blind_zone_m);
     }
 }

@@ -232,6 +232,14 @@ impl Thp {
             .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
             .expect("nodes have members")
             .clone();
+        // A frontier in the blind zone around the robot is looked at before the robot drives away
+        // from it (`search.blind_zone_look_first_m`, shared with GREEDY).
+        if let Some(n) = &near {
+            if blind_zone_first(&ctx.cfg.search, f.cost) {
+                let visit = n.visit(&grid, &segment_cells, true);
+                return Ok(self.blind_zone_goal(ctx, df, visit, None));
+            }
+        }
         let visit = f.visit(&grid, &segment_cells, false);
         // A look from on top or from within the blind zone left it: next from where the camera
         // sees the floor beside it, if anywhere does.

@@ -48,6 +48,9 @@
 //!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not.
 //!   Without it the robot tried goal after goal from the same spot until the run ended `stuck`.
 //! - `thp.finish_group_first` (off): see [`tour`].
+//! - `search.blind_zone_look_first_m` (0: on, shared with GREEDY): a frontier in the camera's blind
+//!   zone around the robot is looked at, by a step back, before the robot drives to the tour's next
+//!   goal ([`blind_zone_first`]); left for later, it made the robot drive back across the plan.
 //! - `volume_views.enabled` (on, shared with GREEDY): before `Complete`, the robot drives to each
 //!   place from which the camera would still see unknown volume that no frontier shows (the top of
 //!   the height band near walls, space over furniture; [`super::view_gain::VolumeViews`]), counted
@@ -70,7 +73,8 @@
 //! path itself.
 
 use super::frontier_visit::{
-    blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint, FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint,
+    FrontierVisits, Visit,
 };
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
