@@ -186,20 +186,23 @@ pub fn search_source(
 /// cells that are physically clear (at least `robot.radius_m + clear_margin_m` from every known
 /// obstacle surface), at three times the cost, and leads to the nearest of `targets` outside the
 /// pocket: the open frontier cells, or, for a robot with no enterable cell around it at all, the
-/// enterable cells nearby (THP's `way_out`). Returns world points from the robot.
+/// enterable cells nearby (THP's `way_out`). Only the inflated cells for which `may_squeeze` holds
+/// are entered (THP: the cells beside the robot's own trail, the way it came in). Returns world
+/// points from the robot.
 pub fn escape_path(
     ctx: &mut PlanContext,
     source: usize,
     reachable: &search::DistanceField,
     targets: &[usize],
     clear_margin_m: f64,
+    may_squeeze: impl Fn(usize) -> bool,
 ) -> Option<Vec<Point2<f64>>> {
     let (map, cfg, robot) = (ctx.map, &ctx.cfg.search, ctx.pose.position());
     let grid = *map.grid();
     let clear = ctx.cfg.robot.radius_m + clear_margin_m;
     let relaxed = |i: usize| {
         step_cost(map, cfg, robot, i).or_else(|| {
-            (map.is_inflated(i) && !map.is_obstacle(i) && !map.is_unknown(i) && {
+            (map.is_inflated(i) && !map.is_obstacle(i) && !map.is_unknown(i) && may_squeeze(i) && {
                 let p = grid.center(grid.cell(i));
                 map.nearest_obstacle_point(p, clear).is_none()
             })

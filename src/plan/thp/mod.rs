@@ -61,7 +61,8 @@
 //!   ending (BENCHMARKS.md has both settings).
 //!
 //! Not config keys, because they only bound failures: an escape from a pocket gives its target up
-//! after `MAX_ESCAPES` tries (`escapes_given_up`).
+//! after `MAX_ESCAPES` tries (`escapes_given_up`), and squeezes through inflated cells only beside
+//! the robot's own trail ([`goals::Trail`]), back the way it came in.
 //!
 //! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
 //! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
@@ -142,6 +143,8 @@ pub struct Thp {
     ledger: PathLedger,
     /// Escapes started toward each target cell.
     escape_tries: BTreeMap<usize, u32>,
+    /// Where the robot has been (the way an escape may squeeze back through).
+    trail: goals::Trail,
     /// Views of the unknown volume before `Complete`, if on (not in the paper; see the module doc).
     volume_views: Option<VolumeViews>,
 }
@@ -223,6 +226,7 @@ impl Thp {
             stats: ThpStats::default(),
             ledger: PathLedger::default(),
             escape_tries: BTreeMap::new(),
+            trail: goals::Trail::default(),
             volume_views: VolumeViews::new(&params.volume_views),
         }
     }
@@ -261,6 +265,7 @@ impl Thp {
     /// The next action (see [`Planner::plan`]).
     fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.note_position(ctx.pose.position());
+        self.trail.visit(ctx.map.grid(), ctx.pose.position());
         self.visits.ensure(ctx.map.grid());
         self.tsp_ms = None;
         if self.mode.unblock() {
@@ -330,6 +335,7 @@ impl Planner for Thp {
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
         self.note_position(ctx.pose.position());
+        self.trail.visit(ctx.map.grid(), ctx.pose.position());
         if !matches!(action, Action::Follow { .. }) {
             return false;
         }
