@@ -83,9 +83,6 @@ impl Thp {
         cells: &[crate::grid::Cell],
     ) {
         let grid = ctx.map.grid();
-        if tour_node.is_none() {
-            self.ledger.kind = GoalKind::OutsideTour;
-        }
         let path: Vec<Point2<f64>> = cells.iter().map(|c| grid.center(*c)).collect();
         if self.cfg.advection {
             if let Some(field) = &mut self.field {

@@ -195,7 +195,7 @@ impl Thp {
                         continue;
                     }
                     self.stats.escapes.add(1.0);
-                    self.ledger.kind = GoalKind::OutsideTour;
+                    self.ledger.kind = GoalKind::Escape;
                     self.mode.stop();
                     return Ok(Choice::Act(Action::Follow {
                         path,
@@ -225,11 +225,12 @@ impl Thp {
                         .path_to(&grid, view.viewpoint)
                         .expect("reachable by construction");
                     self.set_goal(ctx, visit, None, &path.cells);
+                    self.ledger.kind = GoalKind::DistantView;
                     return Ok(Choice::Drive);
                 }
                 // Then at the unknown volume no frontier shows, if on (shared with GREEDY).
                 if let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, df)) {
-                    self.ledger.kind = GoalKind::OutsideTour;
+                    self.ledger.kind = GoalKind::VolumeView;
                     self.mode.stop();
                     let (action, _) = follow_to(&grid, df, view.cell, true, false);
                     return Ok(Choice::Act(action));
@@ -363,7 +364,7 @@ impl Thp {
             return Choice::Act(Action::LookAround);
         };
         self.stats.escapes.add(1.0);
-        self.ledger.kind = GoalKind::OutsideTour;
+        self.ledger.kind = GoalKind::Escape;
         self.mode.stop();
         Choice::Act(Action::Follow {
             path,
@@ -382,6 +383,7 @@ impl Thp {
         tour_node: Option<usize>,
     ) -> Choice {
         let grid = *ctx.map.grid();
+        self.ledger.kind = GoalKind::BlindZone;
         let Some(v) = blind_zone_viewpoint(ctx.map, df, visit.aim, self.view_m, &ctx.cfg.camera)
         else {
             self.mode.drive(Goal {

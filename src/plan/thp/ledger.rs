@@ -5,7 +5,8 @@ use super::*;
 /// Why the robot is driving where it is: each goal's reason, and the metres driven for it. Written
 /// to the statistics as `path_m_*`, so that a comparison with GREEDY can say where THP's extra
 /// metres go (same group, next group in the tour, leaving a group with frontiers left for another,
-/// coming back to such a group, or a goal outside the tour).
+/// coming back to such a group, or a goal outside the tour: a blind-zone look, a distant view, a
+/// volume view or an escape).
 #[derive(Clone, Debug, Default)]
 pub(super) struct PathLedger {
     /// Node key (anchor) of the last tour goal (kept across goals outside the tour).
@@ -16,9 +17,11 @@ pub(super) struct PathLedger {
     pub(super) last_pos: Option<Point2<f64>>,
 }
 
+/// A look from a viewpoint chosen for a tour goal's frontier (`sighted_viewpoint`) counts under the
+/// kind of the tour goal before it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(super) enum GoalKind {
-    /// Blind-zone views, views through gaps, escapes and the initial look: no tour node.
+    /// No goal yet (the first look).
     #[default]
     OutsideTour,
     SameGroup,
@@ -27,15 +30,27 @@ pub(super) enum GoalKind {
     LeftUnfinished,
     /// Back to a group left unfinished earlier.
     Return,
+    /// A step back to see a frontier in the camera's blind zone.
+    BlindZone,
+    /// A look through a gap too narrow to pass.
+    DistantView,
+    /// A view of unknown volume no frontier shows, before `Complete`.
+    VolumeView,
+    /// An escape from a pocket, or the way out of a spot with no enterable cell around.
+    Escape,
 }
 
 impl GoalKind {
-    pub(super) const ALL: [GoalKind; 5] = [
+    pub(super) const ALL: [GoalKind; 9] = [
         GoalKind::OutsideTour,
         GoalKind::SameGroup,
         GoalKind::NextGroup,
         GoalKind::LeftUnfinished,
         GoalKind::Return,
+        GoalKind::BlindZone,
+        GoalKind::DistantView,
+        GoalKind::VolumeView,
+        GoalKind::Escape,
     ];
 
     pub(super) fn key(self) -> &'static str {
@@ -45,6 +60,10 @@ impl GoalKind {
             GoalKind::NextGroup => "path_m_next_group",
             GoalKind::LeftUnfinished => "path_m_left_unfinished",
             GoalKind::Return => "path_m_return",
+            GoalKind::BlindZone => "path_m_blind_zone",
+            GoalKind::DistantView => "path_m_distant_view",
+            GoalKind::VolumeView => "path_m_volume_view",
+            GoalKind::Escape => "path_m_escape",
         }
     }
 }

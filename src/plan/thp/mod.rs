@@ -196,7 +196,7 @@ struct ThpStats {
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
     /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
-    path_m: [Count; 5],
+    path_m: [Count; 9],
 }
 
 impl Thp {
