@@ -36,9 +36,9 @@ const UNREACHED_GIVE_UP_M: f64 = 0.5;
 ///
 /// Left until no other frontier was left, such a frontier was seen only if the robot's way passed
 /// it. A goal across the plan left it behind, and the robot drove back for it at the end: THP on
-/// `plan_ade2a47d0b`, random start 1, made four such round trips of 6–17 m (99 m in all; 75 m with
-/// this rule), and on 33 real plans × 3 starts both GREEDY and THP drove 4–5 m less a run
-/// (BENCHMARKS.md).
+/// `plan_ade2a47d0b`, random start 1, made four such round trips of 6–17 m (99.0 m in all; 64.1 m
+/// with this rule). On 66 real plans × 3 random starts THP drove 4.0 m less a run and GREEDY 1.2 m
+/// (BENCHMARKS.md, where thresholds from 0 to 9 m are compared).
 pub fn blind_zone_first(cfg: &SearchConfig, goal_cost: f32) -> bool {
     f64::from(goal_cost) > cfg.blind_zone_look_first_m.get()
 }
