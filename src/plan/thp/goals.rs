@@ -212,7 +212,11 @@ impl Thp {
                     |i| self.visits.is_unobservable(i),
                     self.view_m,
                 ) {
-                    self.stats.distant_views.add(1.0);
+                    // Counted once per view: THP plans again on the way to a look (a near view
+                    // is never kept as the goal), and each plan used to count it again.
+                    if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
+                        self.stats.distant_views.add(1.0);
+                    }
                     let visit = Visit {
                         target: segment_cells[view.segment]
                             .iter()
