@@ -344,6 +344,7 @@ pub struct ThpConfig {
     pub finish_group_first: bool,
     pub tour_start: TourStart,
     pub look_when_blocked: bool,
+    pub volume_view_tour: bool,
     pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }

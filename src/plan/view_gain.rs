@@ -331,10 +331,50 @@ impl VolumeViews {
     /// lattice cells `df` reaches, away from the views already taken, whose gain reaches the cutoff;
     /// the view is marked taken. `None` when there is none: the volume is done.
     pub fn next(&mut self, map: &Map, df: &DistanceField) -> Option<VolumeView> {
-        let grid: GridSpec = *map.grid();
-        if self.given_up.len() != grid.cells() {
-            self.given_up = vec![false; grid.cells()];
+        let best = self
+            .open(map, df)
+            .into_iter()
+            .map(|(cost, view)| (view.gain_m3 / (cost as f64 + COST_OFFSET_M), view))
+            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cell.cmp(&a.1.cell)))?
+            .1;
+        self.mark_taken(map.grid(), best.cell);
+        Some(best)
+    }
+
+    /// The views still open, thinned for a tour: the open lattice views by decreasing gain (ties to
+    /// the lower cell), each kept only if no kept one lies within `spacing_m`, at most `max` of
+    /// them. Nothing is marked taken; [`VolumeViews::mark_taken`] does that for the one driven to.
+    pub fn thinned(
+        &mut self,
+        map: &Map,
+        df: &DistanceField,
+        spacing_m: f64,
+        max: usize,
+    ) -> Vec<VolumeView> {
+        let grid = *map.grid();
+        let mut open: Vec<VolumeView> = self.open(map, df).into_iter().map(|v| v.1).collect();
+        open.sort_by(|a, b| b.gain_m3.total_cmp(&a.gain_m3).then(a.cell.cmp(&b.cell)));
+        let mut kept: Vec<VolumeView> = Vec::new();
+        for v in open {
+            if kept.len() == max {
+                break;
+            }
+            let p = grid.center(grid.cell(v.cell));
+            if kept
+                .iter()
+                .all(|k| (grid.center(grid.cell(k.cell)) - p).norm() > spacing_m)
+            {
+                kept.push(v);
+            }
         }
+        kept
+    }
+
+    /// The open views with their path costs: the traversable lattice cells `df` reaches, away from
+    /// the views already taken, whose gain reaches the cutoff.
+    fn open(&mut self, map: &Map, df: &DistanceField) -> Vec<(f32, VolumeView)> {
+        let grid: GridSpec = *map.grid();
+        self.fit_to(&grid);
         let s = ((self.spacing_m / grid.res).round() as usize).max(1);
         let candidates: Vec<(f32, usize)> = (0..grid.ny)
             .step_by(s)
@@ -343,19 +383,19 @@ impl VolumeViews {
             .filter_map(|i| df.cost_to(i).map(|cost| (cost, i)))
             .collect();
         self.refresh_gains(map, &candidates);
-        let gains = &self.gains;
-        let best = candidates
-            .iter()
-            .map(|&(cost, cell)| ((cost, cell), gains[cell]))
-            .filter(|(_, g)| *g >= self.cutoff_m3)
-            .map(|((cost, cell), g)| (g / (cost as f64 + COST_OFFSET_M), cell, g))
-            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))?;
-        self.take(&grid, best.1);
-        self.taken.add(1.0);
-        Some(VolumeView {
-            cell: best.1,
-            gain_m3: best.2,
-        })
+        candidates
+            .into_iter()
+            .filter(|&(_, cell)| self.gains[cell] >= self.cutoff_m3)
+            .map(|(cost, cell)| {
+                (
+                    cost,
+                    VolumeView {
+                        cell,
+                        gain_m3: self.gains[cell],
+                    },
+                )
+            })
+            .collect()
     }
 
     /// Brings the gains of `candidates` up to date with `map`: evaluates (in parallel) those never
@@ -410,8 +450,18 @@ impl VolumeViews {
         views.as_ref().map(|v| v.taken).unwrap_or_default()
     }
 
-    /// Marks the cells within [`VIEW_GIVE_UP_M`] of `cell` as taken.
-    fn take(&mut self, grid: &GridSpec, cell: usize) {
+    /// Sizes the given-up marks to `grid` (all open) unless they already fit it.
+    fn fit_to(&mut self, grid: &GridSpec) {
+        if self.given_up.len() != grid.cells() {
+            self.given_up = vec![false; grid.cells()];
+        }
+    }
+
+    /// Marks the view at `cell` taken: counted, and the cells within [`VIEW_GIVE_UP_M`] of it no
+    /// longer considered.
+    pub fn mark_taken(&mut self, grid: &GridSpec, cell: usize) {
+        self.fit_to(grid);
+        self.taken.add(1.0);
         let c = grid.cell(cell);
         let p = grid.center(c);
         let r = (VIEW_GIVE_UP_M / grid.res).ceil() as i32;
@@ -676,6 +726,53 @@ mod tests {
             }
         }
         assert_eq!(one, run(2));
+    }
+
+    /// The thinned views are the open views (those `next` would rank) taken greedily by gain: in
+    /// decreasing gain, pairwise farther apart than the spacing, every open view within the spacing
+    /// of a kept one of at least its gain, capped in number; nothing is marked taken until
+    /// `mark_taken`, which removes the views around that cell from the next call.
+    #[test]
+    fn thinned_views_are_the_open_ones_by_gain_and_apart() {
+        let cfg = Config::default();
+        let (map, df) = half_scanned_room(&cfg);
+        let grid = *map.grid();
+        let mut views = views_with_cutoff(cfg.volume_views.gain_cutoff_m3.get()).unwrap();
+        let at = |v: &VolumeView| grid.center(grid.cell(v.cell));
+        let open: Vec<VolumeView> = views.open(&map, &df).into_iter().map(|v| v.1).collect();
+        let kept = views.thinned(&map, &df, 1.0, usize::MAX);
+        assert!(
+            kept.len() >= 2 && kept.len() < open.len(),
+            "{} of {}",
+            kept.len(),
+            open.len()
+        );
+        for (k, v) in kept.iter().enumerate() {
+            assert!(open.contains(v));
+            for w in &kept[..k] {
+                assert!(w.gain_m3 >= v.gain_m3);
+                assert!((at(v) - at(w)).norm() > 1.0);
+            }
+        }
+        for v in &open {
+            assert!(
+                kept.iter()
+                    .any(|w| w.gain_m3 >= v.gain_m3 && (at(v) - at(w)).norm() <= 1.0 + 1e-9),
+                "{v:?} neither kept nor covered"
+            );
+        }
+        assert_eq!(views.thinned(&map, &df, 1.0, 1), kept[..1]);
+        assert_eq!(
+            views.thinned(&map, &df, 1.0, usize::MAX),
+            kept,
+            "nothing taken yet"
+        );
+        views.mark_taken(&grid, kept[0].cell);
+        let after = views.thinned(&map, &df, 1.0, usize::MAX);
+        assert!(after
+            .iter()
+            .all(|v| (at(v) - at(&kept[0])).norm() > VIEW_GIVE_UP_M));
+        assert_eq!(views.taken.get(), Some(1.0));
     }
 
     /// Gains kept from an earlier call are the gains a fresh evaluation gives: in a 14 m long room,

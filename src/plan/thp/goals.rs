@@ -233,7 +233,7 @@ impl Thp {
                     return Ok(Choice::Drive);
                 }
                 // Then at the unknown volume no frontier shows, if on (shared with GREEDY).
-                if let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, df)) {
+                if let Some(view) = self.next_volume_view(ctx, costs, df) {
                     self.ledger.kind = GoalKind::VolumeView;
                     self.mode.stop();
                     let (action, _) = follow_to(&grid, df, view.cell, true, false);

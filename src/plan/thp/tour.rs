@@ -1,5 +1,6 @@
 //! The online TSP over the groups (THP §3.3, Alg. 1, Eq. 6): where each tour starts, and the path
-//! costs between the groups' access cells.
+//! costs between the groups' access cells. The volume views before `Complete` are ordered by the
+//! same kind of tour (`thp.volume_view_tour`).
 
 use super::*;
 
@@ -22,7 +23,75 @@ pub(super) fn anchor_cost(
         })
 }
 
+/// Open volume views within this of a kept one do not become tour nodes of their own: from about a
+/// metre apart a view turned once shows much the same volume, metres.
+const VOLUME_VIEW_NODE_SPACING_M: f64 = 1.0;
+
+/// At most this many volume views (the largest gains after thinning) make one tour.
+const VOLUME_VIEW_NODES_MAX: usize = 24;
+
+/// `m` with the robot appended as node `m.n()`: its row holds `from_robot`, the robot's path costs
+/// to each node. No open tour comes back to its start, so its column is never used (filled
+/// symmetrically).
+fn robot_first(m: &CostMatrix, from_robot: &[f64]) -> CostMatrix {
+    let n = m.n();
+    CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
+        (true, true) => 0.0,
+        (true, false) => from_robot[j],
+        (false, true) => from_robot[i],
+        (false, false) => m.get(i, j),
+    })
+}
+
 impl Thp {
+    /// The next volume view to drive to, marked taken; `None` when views are off or none is open.
+    ///
+    /// With `thp.volume_view_tour` (not in the paper) the open views, thinned to one per
+    /// [`VOLUME_VIEW_NODE_SPACING_M`], are ordered by a fixed-start open TSP from the robot over
+    /// their path costs, as Alg. 1 orders anchors, and the first is taken; the tour is solved again
+    /// at every view, since each view changes what the others would still show. Without it, the
+    /// best gain per metre one view at a time, as GREEDY does ([`VolumeViews::next`]).
+    pub(super) fn next_volume_view(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &plan::StepCosts,
+        df: &DistanceField,
+    ) -> Option<super::super::view_gain::VolumeView> {
+        let grid = *ctx.map.grid();
+        let mut views = self.volume_views.take()?;
+        let next = if self.cfg.volume_view_tour {
+            let open = views.thinned(
+                ctx.map,
+                df,
+                VOLUME_VIEW_NODE_SPACING_M,
+                VOLUME_VIEW_NODES_MAX,
+            );
+            let first = match open.len() {
+                0 => None,
+                1 => Some(open[0]),
+                n => {
+                    let cells: Vec<usize> = open.iter().map(|v| v.cell).collect();
+                    let m = self.cost_matrix(ctx, costs, &cells);
+                    let from_robot: Vec<f64> = cells
+                        .iter()
+                        .map(|&c| df.cost_to(c).map_or(f64::INFINITY, f64::from))
+                        .collect();
+                    let with_robot = robot_first(&m, &from_robot);
+                    let tour = tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes);
+                    Some(open[tour.order[1]])
+                }
+            };
+            if let Some(v) = first {
+                views.mark_taken(&grid, v.cell);
+            }
+            first
+        } else {
+            views.next(ctx.map, df)
+        };
+        self.volume_views = Some(views);
+        next
+    }
+
     /// Solves the fixed-start open TSP over `nodes` (Eq. 6); each node is entered at its least-cost
     /// member. Sets the tour (node keys in order). The start, by `thp.tour_start` (and
     /// `thp.finish_group_first`):
@@ -68,20 +137,14 @@ impl Thp {
         let order: Vec<usize> = match (current, self.cfg.tour_start) {
             (Some(start), _) => tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order,
             (None, TourStart::Robot) => {
-                // The robot is the fixed start (node `n`): its row is the robot's distance field
-                // to each access cell. No open tour comes back to its start, so its column is
-                // never used (filled symmetrically).
+                // The robot is the fixed start (node `n`), with its distance field to each
+                // access cell.
                 let n = nodes.len();
                 let from_robot: Vec<f64> = access
                     .iter()
                     .map(|&a| df.cost_to(a).map_or(f64::INFINITY, f64::from))
                     .collect();
-                let with_robot = CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
-                    (true, true) => 0.0,
-                    (true, false) => from_robot[j],
-                    (false, true) => from_robot[i],
-                    (false, false) => m.get(i, j),
-                });
+                let with_robot = robot_first(&m, &from_robot);
                 let tour = tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes);
                 tour.order[1..].to_vec()
             }
