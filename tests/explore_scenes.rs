@@ -84,6 +84,22 @@ fn finishes(
                 r.collisions
             ));
         }
+        // A planner that splits its path by goal (`path_m_*`) accounts for all of it, up to the
+        // last step's motion, which no planner call sees.
+        let split: Vec<f64> = (r.planner_stats.iter())
+            .filter(|(k, _)| k.starts_with("path_m_"))
+            .map(|(_, v)| *v)
+            .collect();
+        let unsplit = r.path_length_m - split.iter().sum::<f64>();
+        if !split.is_empty() && !(-1e-6..=0.1).contains(&unsplit) {
+            failures.push(format!(
+                "{} {}: path {:.3} m, {:.3} m of it outside the path_m_* split",
+                planner.name(),
+                r.scene,
+                r.path_length_m,
+                unsplit
+            ));
+        }
     }
     failures
 }

@@ -12,13 +12,17 @@
 //! `volume_views.enabled` (on by default; not part of Yamauchi's method), drives to each place from
 //! which the camera would still see unknown volume that no frontier shows
 //! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
+//!
+//! Statistics: `path_m_frontier`, `path_m_blind_zone`, `path_m_distant_view` and
+//! `path_m_volume_view` split the path by the goal the robot was driving to (a look from a viewpoint
+//! chosen for a frontier counts under `frontier`), to compare with THP's split of the same names.
 
 use super::frontier_visit::{
     blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint,
     FrontierVisits, Visit,
 };
 use super::view_gain::VolumeViews;
-use super::{Action, Count, Plan, PlanContext, Planner};
+use super::{Action, Count, Odometer, Plan, PlanContext, Planner};
 use crate::config::GreedyConfig;
 use crate::Result;
 use std::collections::BTreeMap;
@@ -39,6 +43,32 @@ pub struct Greedy {
     distant_views: Count,
     /// Views of the unknown volume before `Complete` (`volume_views.enabled`), if on.
     volume_views: Option<VolumeViews>,
+    /// The goal being driven to, and the metres driven per kind of goal (`path_m_*`).
+    goal_kind: GoalKind,
+    odometer: Odometer,
+    path_m: [Count; 4],
+}
+
+/// Why GREEDY is driving where it is (`path_m_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum GoalKind {
+    /// The nearest frontier, or a viewpoint chosen to see it.
+    Frontier,
+    /// A step back to see a frontier in the camera's blind zone.
+    BlindZone,
+    /// A look through a gap too narrow to pass.
+    DistantView,
+    /// A view of unknown volume no frontier shows.
+    VolumeView,
+}
+
+impl GoalKind {
+    const KEYS: [&'static str; 4] = [
+        "path_m_frontier",
+        "path_m_blind_zone",
+        "path_m_distant_view",
+        "path_m_volume_view",
+    ];
 }
 
 impl Greedy {
@@ -53,6 +83,9 @@ impl Greedy {
             rerouted: false,
             distant_views: Count::default(),
             volume_views,
+            goal_kind: GoalKind::Frontier,
+            odometer: Odometer::default(),
+            path_m: [Count::default(); 4],
         }
     }
 
@@ -130,11 +163,13 @@ impl Greedy {
                     else {
                         return Ok(Action::Complete);
                     };
+                    self.goal_kind = GoalKind::VolumeView;
                     let action;
                     (action, self.path_cells) = follow_to(&grid, &df, view.cell, true, false);
                     return Ok(action);
                 };
                 self.distant_views.add(1.0);
+                self.goal_kind = GoalKind::DistantView;
                 self.visit = Some(Visit {
                     target: segments[view.segment].cells.clone(),
                     aim: view.aim,
@@ -149,6 +184,7 @@ impl Greedy {
                 aim: near_goal,
                 near_view: true,
             });
+            self.goal_kind = GoalKind::BlindZone;
             let Some(v) = blind_zone_viewpoint(map, &df, near_goal, view_m, &ctx.cfg.camera) else {
                 return Ok(Action::LookAround);
             };
@@ -156,6 +192,7 @@ impl Greedy {
             (action, self.path_cells) = follow_to(&grid, &df, v, look_on_arrival, true);
             return Ok(action);
         };
+        self.goal_kind = GoalKind::Frontier;
         if self.visits.needs_viewpoint(goal) {
             // A look from on top or from within the blind zone left it: next from where the camera
             // sees the floor beside it, if any.
@@ -198,16 +235,28 @@ impl Greedy {
     }
 }
 
+impl Greedy {
+    /// Adds the distance moved since the last call to the current goal's kind.
+    fn note_position(&mut self, ctx: &PlanContext) {
+        let d = self.odometer.advance(ctx.pose.position());
+        if d > 0.0 {
+            self.path_m[self.goal_kind as usize].add(d);
+        }
+    }
+}
+
 impl Planner for Greedy {
     fn name(&self) -> &'static str {
         "greedy"
     }
 
     fn plan(&mut self, ctx: &mut PlanContext) -> Result<Plan> {
+        self.note_position(ctx);
         self.next_action(ctx).map(Plan::from)
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
+        self.note_position(ctx);
         if !matches!(action, Action::Follow { .. }) {
             return false;
         }
@@ -218,10 +267,14 @@ impl Planner for Greedy {
     }
 
     fn stats(&self) -> BTreeMap<String, f64> {
-        super::counted([
-            ("distant_views", self.distant_views),
-            ("volume_views", VolumeViews::taken(&self.volume_views)),
-        ])
+        super::counted(
+            [
+                ("distant_views", self.distant_views),
+                ("volume_views", VolumeViews::taken(&self.volume_views)),
+            ]
+            .into_iter()
+            .chain(GoalKind::KEYS.into_iter().zip(self.path_m)),
+        )
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {

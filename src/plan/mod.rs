@@ -358,6 +358,21 @@ pub struct PlanReport {
     pub tsp_ms: Option<f64>,
 }
 
+/// The distance the robot moved between the planner's calls, for splitting its path by goal
+/// (`path_m_*` in `planner_stats`). The planners see the robot once a step (`plan` or
+/// `is_outdated`), so the sum of the parts is the path driven.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Odometer {
+    last: Option<Point2<f64>>,
+}
+
+impl Odometer {
+    /// The distance from the position at the last call to `p` (0 on the first call).
+    pub fn advance(&mut self, p: Point2<f64>) -> f64 {
+        self.last.replace(p).map_or(0.0, |q| (p - q).norm())
+    }
+}
+
 /// One counter of a planner's typed statistics. It enters `planner_stats` once counted: a counter
 /// never touched in a run is left out of the result.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

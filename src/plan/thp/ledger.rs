@@ -14,7 +14,7 @@ pub(super) struct PathLedger {
     /// Anchors the robot left while their group still had frontiers.
     pub(super) left_unfinished: BTreeSet<usize>,
     pub(super) kind: GoalKind,
-    pub(super) last_pos: Option<Point2<f64>>,
+    pub(super) odometer: plan::Odometer,
 }
 
 /// A look from a viewpoint chosen for a tour goal's frontier (`sighted_viewpoint`) counts under the
@@ -97,11 +97,9 @@ impl Thp {
 
     /// Adds the distance moved since the last call to the current goal's kind.
     pub(super) fn note_position(&mut self, p: Point2<f64>) {
-        if let Some(q) = self.ledger.last_pos.replace(p) {
-            let d = (p - q).norm();
-            if d > 0.0 {
-                self.stats.path_m[self.ledger.kind as usize].add(d);
-            }
+        let d = self.ledger.odometer.advance(p);
+        if d > 0.0 {
+            self.stats.path_m[self.ledger.kind as usize].add(d);
         }
     }
 }
