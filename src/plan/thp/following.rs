@@ -160,10 +160,18 @@ impl Thp {
                         self.stats.advection_stops_at_points.add(1.0);
                     }
                     goal.final_segment = reaches_end;
+                    let exact_arrival = reaches_end && goal.visit.near_view;
+                    let mut path = segment;
+                    if exact_arrival {
+                        // The pathline ends within the goal tolerance of the viewpoint; an exact
+                        // arrival is at the viewpoint itself (0.2 m off it the aimed voxel was out
+                        // of view, and the frontier was given up unseen).
+                        path.push(*goal.path.last().expect("path has points"));
+                    }
                     return Action::Follow {
-                        path: segment,
+                        path,
                         look_on_arrival: reaches_end && goal.look_on_arrival,
-                        exact_arrival: reaches_end && goal.visit.near_view,
+                        exact_arrival,
                     };
                 }
                 self.stats.advection_fallbacks.add(1.0);
@@ -192,6 +200,69 @@ impl Thp {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Config;
+    use crate::grid::Cell;
+    use crate::map::testing::{furnished_room_setup, seen_from};
+
+    /// An advected segment that comes within the goal tolerance of a viewpoint chosen for a look
+    /// (`near_view`, arrived at exactly) ends at the viewpoint itself; any other goal's segment
+    /// ends where the pathline does, within the tolerance.
+    #[test]
+    fn a_look_from_a_viewpoint_ends_at_the_viewpoint_not_within_its_tolerance() {
+        let cfg = Config::default();
+        let (grid, bvh) = furnished_room_setup(&cfg);
+        let around = (0..16).map(|i| Pose2::new(4.0, 4.0, i as f64 * std::f64::consts::TAU / 16.0));
+        let map = seen_from(grid, &cfg, &bvh, around.chain([Pose2::new(1.0, 1.0, 0.8)]));
+        let params = PlanParams::from(&cfg);
+        let mut search = Search::new(&grid);
+        // A straight run of 16 cells the robot may enter (1.5 m, inside one advected segment).
+        let ctx_probe = PlanContext {
+            map: &map,
+            pose: Pose2::new(4.0, 4.0, 0.0),
+            time_s: 0.0,
+            cfg: &params,
+            search: &mut search,
+        };
+        let cells: Vec<Cell> = (0..grid.ny as i32)
+            .flat_map(|y| (0..grid.nx as i32 - 16).map(move |x| (x, y)))
+            .map(|(x, y)| (x..x + 16).map(|x| Cell::new(x, y)).collect::<Vec<_>>())
+            .find(|run| run.iter().all(|c| ctx_probe.passable(grid.index(*c))))
+            .expect("a clear run of floor");
+        let (start, end) = (grid.center(cells[0]), grid.center(cells[15]));
+        let ctx = PlanContext {
+            pose: Pose2::new(start.x, start.y, 0.0),
+            ..ctx_probe
+        };
+        for near_view in [true, false] {
+            let mut thp = Thp::new(&super::super::ThpParams::from(&cfg));
+            thp.field = Some(TensorField::new(grid, &cfg.field));
+            let visit = Visit {
+                target: vec![cells[15]],
+                aim: grid.index(cells[15]),
+                near_view,
+            };
+            thp.set_goal(&ctx, visit, None, &cells);
+            let Action::Follow {
+                path,
+                exact_arrival,
+                ..
+            } = thp.next_segment(&ctx)
+            else {
+                panic!("a segment to follow");
+            };
+            assert_eq!(thp.stats.advected_segments.get(), Some(1.0), "advected");
+            let last = *path.last().unwrap();
+            assert_eq!(exact_arrival, near_view);
+            if near_view {
+                assert_eq!(last, end);
+            } else {
+                assert!(
+                    (last - end).norm() <= thp.goal_tolerance_m,
+                    "{last} far from {end}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn pathline_is_cut_at_drift_obstacles_and_the_goal() {

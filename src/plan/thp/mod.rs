@@ -59,6 +59,12 @@
 //!   shorter path *at similar completeness*, and the benchmark's completeness is against what the
 //!   camera can observe, so GREEDY and THP both take the views and their paths compare at the same
 //!   ending (BENCHMARKS.md has both settings).
+//! - `thp.volume_view_tour` (on): those views are visited in the order of a fixed-start open TSP
+//!   from the robot over the open views, thinned to one per metre and solved again at every view
+//!   ([`Thp::next_volume_view`]), as Alg. 1 orders anchors. GREEDY's rule, the best gain per metre
+//!   one view at a time, made THP shuttle along corridors between views (60.5 m for 7 views on
+//!   `plan_0ae54bc5c4`, random start 2); with the tour THP drove 3.1 and 0.7 m less a run on the two
+//!   halves of the real plans, at completeness 0.0003 and 0.0015 higher (BENCHMARKS.md).
 //!
 //! Not config keys, because they only bound failures: an escape from a pocket gives its target up
 //! after `MAX_ESCAPES` tries (`escapes_given_up`), and squeezes through inflated cells only beside
