@@ -30,19 +30,6 @@ const VOLUME_VIEW_NODE_SPACING_M: f64 = 1.0;
 /// At most this many volume views (the largest gains after thinning) make one tour.
 const VOLUME_VIEW_NODES_MAX: usize = 24;
 
-/// `m` with the robot appended as node `m.n()`: its row holds `from_robot`, the robot's path costs
-/// to each node. No open tour comes back to its start, so its column is never used (filled
-/// symmetrically).
-fn robot_first(m: &CostMatrix, from_robot: &[f64]) -> CostMatrix {
-    let n = m.n();
-    CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
-        (true, true) => 0.0,
-        (true, false) => from_robot[j],
-        (false, true) => from_robot[i],
-        (false, false) => m.get(i, j),
-    })
-}
-
 impl Thp {
     /// The next volume view to drive to, marked taken; `None` when views are off or none is open.
     ///
@@ -69,16 +56,10 @@ impl Thp {
             let first = match open.len() {
                 0 => None,
                 1 => Some(open[0]),
-                n => {
+                _ => {
                     let cells: Vec<usize> = open.iter().map(|v| v.cell).collect();
                     let m = self.cost_matrix(ctx, costs, &cells);
-                    let from_robot: Vec<f64> = cells
-                        .iter()
-                        .map(|&c| df.cost_to(c).map_or(f64::INFINITY, f64::from))
-                        .collect();
-                    let with_robot = robot_first(&m, &from_robot);
-                    let tour = tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes);
-                    Some(open[tour.order[1]])
+                    Some(open[self.tour_from_robot(&m, df, &cells)[0]])
                 }
             };
             if let Some(v) = first {
@@ -90,6 +71,25 @@ impl Thp {
         };
         self.volume_views = Some(views);
         next
+    }
+
+    /// The open tour over the nodes at `cells` (path costs `m` between them) with the robot's cell
+    /// as its fixed start: the nodes' indices in tour order, the robot left out. The robot's row
+    /// holds its distance field to each cell; no open tour comes back to its start, so its column is
+    /// never used (filled symmetrically).
+    fn tour_from_robot(&self, m: &CostMatrix, df: &DistanceField, cells: &[usize]) -> Vec<usize> {
+        let n = m.n();
+        let from_robot: Vec<f64> = cells
+            .iter()
+            .map(|&c| df.cost_to(c).map_or(f64::INFINITY, f64::from))
+            .collect();
+        let with_robot = CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
+            (true, true) => 0.0,
+            (true, false) => from_robot[j],
+            (false, true) => from_robot[i],
+            (false, false) => m.get(i, j),
+        });
+        tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes).order[1..].to_vec()
     }
 
     /// Solves the fixed-start open TSP over `nodes` (Eq. 6); each node is entered at its least-cost
@@ -136,18 +136,7 @@ impl Thp {
         let m = self.cost_matrix(ctx, costs, &access);
         let order: Vec<usize> = match (current, self.cfg.tour_start) {
             (Some(start), _) => tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order,
-            (None, TourStart::Robot) => {
-                // The robot is the fixed start (node `n`), with its distance field to each
-                // access cell.
-                let n = nodes.len();
-                let from_robot: Vec<f64> = access
-                    .iter()
-                    .map(|&a| df.cost_to(a).map_or(f64::INFINITY, f64::from))
-                    .collect();
-                let with_robot = robot_first(&m, &from_robot);
-                let tour = tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes);
-                tour.order[1..].to_vec()
-            }
+            (None, TourStart::Robot) => self.tour_from_robot(&m, df, &access),
             (None, TourStart::NearestAnchor) => {
                 let start = (0..nodes.len())
                     .min_by(|&a, &b| {
