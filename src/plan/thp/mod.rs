@@ -72,7 +72,9 @@
 //!
 //! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
 //! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
-//! goals that left a group with frontiers left and came back to one.
+//! goals that left a group with frontiers left and came back to one. `tour_starts_not_nearest_group`
+//! and `tour_start_extra_m` count the tours whose first group the robot does not reach at least cost
+//! (an anchor near the robot whose frontiers are not), one cause of THP's longer legs on real plans.
 //!
 //! Ablations (`[thp]`): `extension = false` keeps only the degenerate points of the first key frame
 //! (Table 3); `grouping = "none" | "kmeans"` replaces anchor groups by single frontiers or k-means
@@ -201,6 +203,10 @@ struct ThpStats {
     distant_views: Count,
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
+    /// Tours that start at a group the robot does not reach at least cost (its least-cost frontier
+    /// farther than another group's), and the sum of those extra path costs, metres.
+    tour_starts_not_nearest_group: Count,
+    tour_start_extra_m: Count,
     /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
     path_m: [Count; 9],
 }
@@ -410,6 +416,11 @@ impl Planner for Thp {
                 ("volume_views", VolumeViews::taken(&self.volume_views)),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),
+                (
+                    "tour_starts_not_nearest_group",
+                    s.tour_starts_not_nearest_group,
+                ),
+                ("tour_start_extra_m", s.tour_start_extra_m),
             ]
             .into_iter()
             .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),

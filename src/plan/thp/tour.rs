@@ -27,6 +27,10 @@ pub(super) fn anchor_cost(
 /// metre apart a view turned once shows much the same volume, metres.
 const VOLUME_VIEW_NODE_SPACING_M: f64 = 1.0;
 
+/// A tour's first group whose entry is farther than the nearest group's by more than this counts
+/// as not starting at the nearest group (`tour_starts_not_nearest_group`), metres: about a cell.
+const TOUR_START_SLACK_M: f64 = 0.1;
+
 /// At most this many volume views (the largest gains after thinning) make one tour.
 const VOLUME_VIEW_NODES_MAX: usize = 24;
 
@@ -150,6 +154,17 @@ impl Thp {
                 tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order
             }
         };
+        // How much nearer another group's entry was than the first group's (a cause of THP's
+        // longer legs traced on real plans: an anchor near the robot whose frontiers are not).
+        let entry = |k: usize| df.cost_to(access[k]).map_or(f64::INFINITY, f64::from);
+        let nearest = (0..nodes.len()).map(entry).fold(f64::INFINITY, f64::min);
+        if let Some(&first) = order.first() {
+            let extra = entry(first) - nearest;
+            if extra.is_finite() && extra > TOUR_START_SLACK_M {
+                self.stats.tour_starts_not_nearest_group.add(1.0);
+                self.stats.tour_start_extra_m.add(extra);
+            }
+        }
         self.tour = order.iter().map(|&i| nodes[i].key).collect();
         self.tour_points = order.iter().map(|&i| nodes[i].pos).collect();
         self.new_anchors = false;
