@@ -86,7 +86,9 @@ fn finishes(
         }
         // A planner that splits its path by goal (`path_m_*`) accounts for all of it, up to the
         // last step's motion, which no planner call sees.
-        let split: Vec<f64> = (r.planner_stats.iter())
+        let split: Vec<f64> = r
+            .planner_stats
+            .iter()
             .filter(|(k, _)| k.starts_with("path_m_"))
             .map(|(_, v)| *v)
             .collect();

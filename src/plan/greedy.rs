@@ -97,6 +97,14 @@ impl Greedy {
 }
 
 impl Greedy {
+    /// Adds the distance moved since the last call to the current goal's kind.
+    fn note_position(&mut self, ctx: &PlanContext) {
+        let d = self.odometer.advance(ctx.pose.position());
+        if d > 0.0 {
+            self.path_m[self.goal_kind as usize].add(d);
+        }
+    }
+
     /// The next action: toward the nearest frontier, or `Complete` (see [`Planner::plan`]; TENSOR's
     /// fallback asks it too).
     pub fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
@@ -232,16 +240,6 @@ impl Greedy {
             look_on_arrival,
             exact_arrival: false,
         })
-    }
-}
-
-impl Greedy {
-    /// Adds the distance moved since the last call to the current goal's kind.
-    fn note_position(&mut self, ctx: &PlanContext) {
-        let d = self.odometer.advance(ctx.pose.position());
-        if d > 0.0 {
-            self.path_m[self.goal_kind as usize].add(d);
-        }
     }
 }
 
