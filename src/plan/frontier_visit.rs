@@ -429,7 +429,7 @@ const SIGHT_POINTS: [f64; 3] = [0.0, -0.4, 0.4];
 
 /// How sure a sight test must be.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Sight {
+enum Sight {
     /// The camera may see the voxel: some point of a 3 × 3 × 3 lattice inside it
     /// ([`SIGHT_POINTS`]) is in view, and the segment to it crosses no known obstacle surface: an
     /// occupied voxel blocks only where the segment meets its column's obstacle box (the extent of
@@ -449,13 +449,7 @@ pub(crate) enum Sight {
 /// Testing the centre alone, through whole occupied voxels, found no viewpoint for most unseen
 /// voxels left beside frontiers at `complete` on the dev plans, while the ground truth's camera saw
 /// them from cells the robot's map held standable (BENCHMARKS.md, "Sight test as the camera sees").
-pub(crate) fn camera_sees(
-    map: &Map,
-    from: usize,
-    target: usize,
-    camera: &CameraConfig,
-    sight: Sight,
-) -> bool {
+fn camera_sees(map: &Map, from: usize, target: usize, camera: &CameraConfig, sight: Sight) -> bool {
     let occ = map.occupancy();
     let grid = occ.grid();
     let p = grid.center(grid.cell(from));
