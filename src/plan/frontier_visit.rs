@@ -336,10 +336,9 @@ pub fn sighted_viewpoint(
 ) -> Option<usize> {
     let ring = viewpoint_ring(map, df, aim, view_m, 2.0 * view_m);
     let lowest = lowest_unknown_beside(map, aim);
-    let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
-    let wide = || viewpoint_ring(map, df, aim, near, far);
     first_sighted(map, &ring, &lowest, camera, Sight::Sure).or_else(|| {
-        let wide = wide();
+        let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
+        let wide = viewpoint_ring(map, df, aim, near, far);
         first_sighted(map, &wide, &lowest, camera, Sight::Sure)
             .or_else(|| first_sighted(map, &ring, &lowest, camera, Sight::Possible))
             .or_else(|| first_sighted(map, &wide, &lowest, camera, Sight::Possible))
@@ -509,9 +508,9 @@ fn segment_meets_box(
     } else {
         b
     };
-    // The segment's bounding box in plan view meets the box exactly when the segment does: within
-    // one voxel the segment is short, and both boxes are axis-aligned, so this slab test is exact
-    // per axis and conservative only across the diagonal (it may call a corner graze a hit).
+    // Tested as the segment's bounding box in plan view against the box: exact for a segment along
+    // an axis, and for a diagonal one it may call a pass by the box's corner a hit (conservative:
+    // it never sees through the hits).
     let (x0, x1) = (origin.x + dir.x * t_in, origin.x + dir.x * t_out);
     let (y0, y1) = (origin.y + dir.y * t_in, origin.y + dir.y * t_out);
     x0.max(x1) >= f64::from(b.min[0])
