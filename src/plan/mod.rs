@@ -228,7 +228,7 @@ pub fn path_length(line: &[Point2<f64>]) -> f64 {
 }
 
 /// How near the end of its path a robot following an `exact_arrival` action stops, metres.
-pub const EXACT_ARRIVAL_M: f64 = 0.05;
+pub const EXACT_ARRIVAL_M: f64 = 0.02;
 
 /// What the robot should do next.
 #[derive(Clone, Debug, PartialEq)]

@@ -264,6 +264,61 @@ mod tests {
         }
     }
 
+    /// A goal outside the tour (a step back to look at a blind-zone frontier) is kept at a segment
+    /// end and through new anchors until it is reached or seen; re-chosen there, two such goals
+    /// with viewpoints beside each other sent the robot back and forth without a look until the
+    /// run was stuck. A tour goal is re-chosen when new anchors arrive (Alg. 1).
+    #[test]
+    fn a_step_back_for_the_blind_zone_is_kept_until_it_is_done() {
+        let cfg = Config::default();
+        let (grid, bvh) = furnished_room_setup(&cfg);
+        // One look to the east leaves most of the room unknown, so frontiers are left.
+        let map = seen_from(grid, &cfg, &bvh, [Pose2::new(4.0, 4.0, 0.0)]);
+        let params = PlanParams::from(&cfg);
+        let mut search = Search::new(&grid);
+        let ctx = PlanContext {
+            map: &map,
+            pose: Pose2::new(4.0, 4.0, 0.0),
+            time_s: 0.0,
+            cfg: &params,
+            search: &mut search,
+        };
+        let robot = grid.cell_of(ctx.pose.position()).unwrap();
+        // A short run of cells the robot may enter, from where it stands.
+        let cells: Vec<Cell> = (0..6).map(|k| Cell::new(robot.x + k, robot.y)).collect();
+        assert!(
+            cells.iter().all(|c| ctx.passable(grid.index(*c))),
+            "clear run"
+        );
+        // The frontier cell farthest from the robot: never the next goal chosen afresh.
+        let far = map
+            .frontiers()
+            .iter()
+            .flat_map(|s| s.cells.clone())
+            .max_by(|a, b| {
+                let d = |c: &Cell| (grid.center(*c) - ctx.pose.position()).norm();
+                d(a).total_cmp(&d(b)).then(a.cmp(b))
+            })
+            .expect("frontiers are left");
+        let mut ctx = ctx;
+        for tour_node in [None, Some(0)] {
+            let mut thp = Thp::new(&super::super::ThpParams::from(&cfg));
+            let visit = Visit {
+                target: vec![far],
+                aim: grid.index(far),
+                near_view: true,
+            };
+            thp.set_goal(&ctx, visit, tour_node, &cells);
+            thp.new_anchors = true;
+            let _ = thp.next_action(&mut ctx).unwrap();
+            let kept = thp
+                .mode
+                .goal()
+                .is_some_and(|g| g.visit.aim == grid.index(far));
+            assert_eq!(kept, tour_node.is_none(), "tour node {tour_node:?}");
+        }
+    }
+
     #[test]
     fn pathline_is_cut_at_drift_obstacles_and_the_goal() {
         let path: Vec<Point2<f64>> = (0..=30).map(|i| Point2::new(i as f64 * 0.1, 0.0)).collect();

@@ -212,8 +212,8 @@ impl Thp {
                     |i| self.visits.is_unobservable(i),
                     self.view_m,
                 ) {
-                    // Counted once per view: THP plans again on the way to a look (a near view
-                    // is never kept as the goal), and each plan used to count it again.
+                    // Counted once per view: a view whose path went bad is chosen again on the
+                    // way to it, and each choice used to count it again.
                     if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
                         self.stats.distant_views.add(1.0);
                     }

@@ -51,6 +51,9 @@
 //! - `search.blind_zone_look_first_m` (0: on, shared with GREEDY): a frontier in the camera's blind
 //!   zone around the robot is looked at, by a step back, before the robot drives to the tour's next
 //!   goal ([`blind_zone_first`]); left for later, it made the robot drive back across the plan.
+//!   The step back is kept until it is reached, seen or blocked, through new anchors too (the tour
+//!   is re-solved after it); re-chosen at every segment end, two such frontiers whose viewpoints lay
+//!   beside each other held the robot between them without a look until the run was `stuck`.
 //! - `volume_views.enabled` (on, shared with GREEDY): before `Complete`, the robot drives to each
 //!   place from which the camera would still see unknown volume that no frontier shows (the top of
 //!   the height band near walls, space over furniture; [`super::view_gain::VolumeViews`]), counted
@@ -284,10 +287,19 @@ impl Thp {
             self.stats.looks_when_blocked.add(1.0);
             return Ok(Action::LookAround);
         }
-        let keep_goal =
-            self.mode.goal().is_some_and(|g| {
-                g.visit.is_open(ctx.map) && !g.final_segment && !g.visit.near_view
-            }) && !self.new_anchors;
+        // A goal stays until it is reached, seen or blocked. A drive to a viewpoint (a near view)
+        // whose path went bad is chosen again, since its A* path ends at the viewpoint, not at the
+        // aim. A goal outside the tour (a step back for the blind zone, a look through a gap)
+        // stays through new anchors too; the tour is re-solved once it is done. Re-chosen at every
+        // segment end, two blind-zone frontiers whose viewpoints lie beside each other sent the
+        // robot back and forth between them without a look until the run was stuck
+        // (`plan_e0640c1cbe` seed 3 with a 2 cm arrival, BENCHMARKS.md).
+        let keep_goal = self.mode.goal().is_some_and(|g| {
+            g.visit.is_open(ctx.map)
+                && !g.final_segment
+                && (!g.visit.near_view || !self.path_invalid(ctx, g))
+                && (!self.new_anchors || g.tour_node.is_none())
+        });
         if !keep_goal {
             if let Choice::Act(action) = self.choose_goal(ctx)? {
                 return Ok(action);
@@ -359,7 +371,7 @@ impl Planner for Thp {
             self.mode.interrupt();
             return true;
         }
-        if self.new_anchors {
+        if self.new_anchors && goal.tour_node.is_some() {
             // Alg. 1: new anchors break the loop and the TSP is re-solved.
             self.mode.interrupt();
             return true;
