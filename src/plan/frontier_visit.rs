@@ -178,11 +178,14 @@ impl FrontierVisits {
     /// `robot`, or not. The camera does not see the floor within `blind_zone_m` of the robot, so a
     /// look counts only for the target cells beyond it:
     /// - a first look marks those cells approached, and the cells inside the blind zone `blinded`;
-    /// - a look from the frontier itself marks the approached cells `topped`, and gives up those
-    ///   topped before;
+    /// - a look from the frontier itself marks the approached cells within `blind_zone_m` of the
+    ///   robot `topped`, and gives up those topped before (cells farther along the segment were
+    ///   not looked at from on top);
     /// - a look from a viewpoint chosen to see the frontier (`near_view`) gives up the cells it
     ///   surely could see (the [`Sight::Sure`] test to the unknown voxel beside each), and any cell
-    ///   on its second such look.
+    ///   on its second such look; a cell it does not give up counts as looked at from a distance
+    ///   (approached), so its next visit goes all the way onto it rather than to another step back
+    ///   from the same place.
     ///
     /// Giving up every target cell after a look from on top of it ended runs `complete` with
     /// frontiers whose floor no look had shown (the segment grew, or the first look stood too close).
@@ -232,12 +235,15 @@ impl FrontierVisits {
                     self.near_looks[i] += 1;
                     if seeable || self.near_looks[i] >= 2 {
                         self.unobservable[i] = true;
+                    } else {
+                        self.approached[i] = true;
                     }
                 }
             } else if self.approached[visit.aim] {
+                let blind2 = blind_zone_m * blind_zone_m;
                 for c in &visit.target {
                     let i = grid.index(*c);
-                    if self.approached[i] {
+                    if self.approached[i] && (grid.center(*c) - robot).norm_squared() <= blind2 {
                         if self.topped[i] {
                             self.unobservable[i] = true;
                         }
@@ -671,20 +677,20 @@ mod tests {
             assert!(!visits.is_unobservable(i));
         }
         // The next look, from on top of a cell that had its look from afar, gives up nothing: the
-        // approached cells now want a viewpoint too.
+        // approached cells now want a viewpoint too. (A look from on top counts for the cells in
+        // the blind zone around the robot; here that zone spans the whole segment.)
         let aim = grid.index(*visit.target.iter().find(|c| far(c)).unwrap());
         let on_top = Visit {
             aim,
             ..visit.clone()
         };
-        visits.finished(
-            &map,
-            &on_top,
-            true,
-            grid.center(grid.cell(aim)),
-            blind,
-            &cam,
-        );
+        let top = grid.center(grid.cell(aim));
+        let whole = visit
+            .target
+            .iter()
+            .map(|c| (grid.center(*c) - top).norm())
+            .fold(0.0, f64::max);
+        visits.finished(&map, &on_top, true, top, whole, &cam);
         for c in &visit.target {
             let i = grid.index(*c);
             assert!(
@@ -693,7 +699,9 @@ mod tests {
             );
         }
         // Looks from a viewpoint off the map see none of it: the first gives up nothing, the
-        // second gives up the whole target.
+        // second gives up the cells looked at from afar and from on top. The cells the first look
+        // had in its blind zone count the first viewpoint look as their look from afar and wait
+        // for their approach all the way (the aim always counts).
         let view = Visit {
             near_view: true,
             ..visit.clone()
@@ -705,10 +713,100 @@ mod tests {
             .iter()
             .all(|c| !visits.is_unobservable(grid.index(*c))));
         visits.finished(&map, &view, true, nowhere, blind, &cam);
-        assert!(visit
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert_eq!(visits.is_unobservable(i), far(c) || i == visit.aim, "{c:?}");
+        }
+    }
+
+    /// A look from on top of one frontier cell is a look from on top only for the cells in the
+    /// blind zone around the robot. Counted for the whole segment, a look from on top of a cell
+    /// gave up cells 3.3–3.6 m from the robot (THP, `plan_28182f788a` start 1).
+    #[test]
+    fn a_look_from_on_top_counts_only_for_the_cells_around_the_robot() {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let cam = Config::default().camera;
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        // A look from afar: every cell is approached.
+        let p0 = grid.center(grid.cell(visit.aim));
+        let blind = 1.0;
+        visits.finished(
+            &map,
+            &visit,
+            true,
+            Point2::new(p0.x - 50.0, p0.y),
+            blind,
+            &cam,
+        );
+        // Twice from on top of one end of the segment.
+        let end = *visit
             .target
             .iter()
-            .all(|c| visits.is_unobservable(grid.index(*c))));
+            .max_by(|a, b| {
+                let d = |c: &Cell| (grid.center(*c) - p0).norm();
+                d(a).total_cmp(&d(b)).then(a.cmp(b))
+            })
+            .unwrap();
+        let top = grid.center(end);
+        // A blind zone around the robot reaching half way along the segment.
+        let blind = 0.5
+            * visit
+                .target
+                .iter()
+                .map(|c| (grid.center(*c) - top).norm())
+                .fold(0.0, f64::max);
+        let near = |c: &Cell| (grid.center(*c) - top).norm() <= blind;
+        assert!(visit.target.iter().any(|c| !near(c)) && near(&end));
+        let on_top = Visit {
+            aim: grid.index(end),
+            ..visit.clone()
+        };
+        visits.finished(&map, &on_top, true, top, blind, &cam);
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert_eq!(visits.needs_viewpoint(i), near(c), "{c:?}");
+            assert!(visits.was_approached(i) && !visits.is_unobservable(i));
+        }
+        visits.finished(&map, &on_top, true, top, blind, &cam);
+        for c in &visit.target {
+            assert_eq!(visits.is_unobservable(grid.index(*c)), near(c), "{c:?}");
+        }
+    }
+
+    /// A look from a viewpoint chosen to see a cell that lay in the blind zone, which showed
+    /// nothing, counts as its look from afar: the cell's next visit goes all the way onto it. Left
+    /// unapproached, it stayed a blind-zone cell, the next step back looked from the same spot, and
+    /// that second look gave it up, never approached (THP, `plan_28182f788a` start 1).
+    #[test]
+    fn a_look_from_a_viewpoint_that_shows_nothing_counts_as_the_look_from_afar() {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let cam = Config::default().camera;
+        let robot = grid.center(grid.cell(visit.aim));
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        // A first look with the whole segment in the blind zone: every cell wants a viewpoint.
+        visits.finished(&map, &visit, true, robot, 100.0, &cam);
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert!(visits.needs_viewpoint(i) && !visits.was_approached(i));
+        }
+        // A look from a viewpoint that sees none of it.
+        let view = Visit {
+            near_view: true,
+            ..visit.clone()
+        };
+        visits.finished(&map, &view, true, Point2::new(-100.0, -100.0), 1.0, &cam);
+        for c in &visit.target {
+            let i = grid.index(*c);
+            assert!(visits.was_approached(i), "{c:?}");
+            assert!(
+                !visits.needs_viewpoint(i) && !visits.is_unobservable(i),
+                "{c:?}"
+            );
+        }
     }
 
     #[test]
