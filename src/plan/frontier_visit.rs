@@ -651,6 +651,40 @@ mod tests {
         (map, visit)
     }
 
+    /// [`open_visit`] after a first look from 5 m away, which marks every cell approached (blind
+    /// zone 1 m), with the planners' memory of it.
+    fn looked_at_from_afar() -> (Map, Visit, FrontierVisits) {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        let aim_p = grid.center(grid.cell(visit.aim));
+        let afar = Point2::new(aim_p.x - 5.0, aim_p.y);
+        visits.finished(&map, &visit, true, afar, 1.0, &Config::default().camera);
+        assert!(visit.target.iter().all(|c| {
+            let i = grid.index(*c);
+            visits.was_approached(i) && !visits.needs_viewpoint(i)
+        }));
+        (map, visit, visits)
+    }
+
+    /// [`open_visit`] after a first look from on its aim with the whole segment in the blind zone,
+    /// which leaves every cell wanting a viewpoint, with the planners' memory of it.
+    fn looked_at_from_on_it() -> (Map, Visit, FrontierVisits) {
+        let (map, visit) = open_visit();
+        let grid = map.grid();
+        let mut visits = FrontierVisits::default();
+        visits.ensure(grid);
+        let robot = grid.center(grid.cell(visit.aim));
+        let cam = Config::default().camera;
+        visits.finished(&map, &visit, true, robot, f64::INFINITY, &cam);
+        assert!(visit.target.iter().all(|c| {
+            let i = grid.index(*c);
+            visits.needs_viewpoint(i) && !visits.was_approached(i)
+        }));
+        (map, visit, visits)
+    }
+
     #[test]
     fn looks_give_up_a_frontier_cell_only_after_a_look_that_could_show_it() {
         let (map, visit) = open_visit();
@@ -724,22 +758,10 @@ mod tests {
     /// gave up cells 3.3–3.6 m from the robot (THP, `plan_28182f788a` start 1).
     #[test]
     fn a_look_from_on_top_counts_only_for_the_cells_around_the_robot() {
-        let (map, visit) = open_visit();
+        let (map, visit, mut visits) = looked_at_from_afar();
         let grid = map.grid();
         let cam = Config::default().camera;
-        let mut visits = FrontierVisits::default();
-        visits.ensure(grid);
-        // A look from afar: every cell is approached.
         let p0 = grid.center(grid.cell(visit.aim));
-        let blind = 1.0;
-        visits.finished(
-            &map,
-            &visit,
-            true,
-            Point2::new(p0.x - 50.0, p0.y),
-            blind,
-            &cam,
-        );
         // Twice from on top of one end of the segment.
         let end = *visit
             .target
@@ -781,18 +803,10 @@ mod tests {
     /// that second look gave it up, never approached (THP, `plan_28182f788a` start 1).
     #[test]
     fn a_look_from_a_viewpoint_that_shows_nothing_counts_as_the_look_from_afar() {
-        let (map, visit) = open_visit();
+        // A first look with the whole segment in the blind zone: every cell wants a viewpoint.
+        let (map, visit, mut visits) = looked_at_from_on_it();
         let grid = map.grid();
         let cam = Config::default().camera;
-        let robot = grid.center(grid.cell(visit.aim));
-        let mut visits = FrontierVisits::default();
-        visits.ensure(grid);
-        // A first look with the whole segment in the blind zone: every cell wants a viewpoint.
-        visits.finished(&map, &visit, true, robot, 100.0, &cam);
-        for c in &visit.target {
-            let i = grid.index(*c);
-            assert!(visits.needs_viewpoint(i) && !visits.was_approached(i));
-        }
         // A look from a viewpoint that sees none of it.
         let view = Visit {
             near_view: true,
@@ -844,25 +858,10 @@ mod tests {
 
     #[test]
     fn looks_from_a_viewpoint_give_up_the_aimed_cell_even_if_it_waits_for_its_approach() {
-        let (map, visit) = open_visit();
+        // A look from afar: every cell is approached and waits for its look from on top.
+        let (map, visit, mut visits) = looked_at_from_afar();
         let grid = map.grid();
         let cam = Config::default().camera;
-        let mut visits = FrontierVisits::default();
-        visits.ensure(grid);
-        // A look from afar: every cell is approached and waits for its look from on top.
-        let aim_p = grid.center(grid.cell(visit.aim));
-        visits.finished(
-            &map,
-            &visit,
-            true,
-            Point2::new(aim_p.x - 5.0, aim_p.y),
-            1.0,
-            &cam,
-        );
-        assert!(visit.target.iter().all(|c| {
-            let i = grid.index(*c);
-            visits.was_approached(i) && !visits.needs_viewpoint(i)
-        }));
         // Then two looks from a viewpoint that sees none of it (a distant view of a cell the robot
         // cannot reach): the aim is given up on the second, the other cells still wait.
         let view = Visit {
@@ -951,18 +950,9 @@ mod tests {
 
     #[test]
     fn a_cell_no_viewpoint_sees_gets_the_two_approaches_instead() {
-        let (map, visit) = open_visit();
-        let grid = map.grid();
-        let cam = Config::default().camera;
-        let robot = grid.center(grid.cell(visit.aim));
-        let mut visits = FrontierVisits::default();
-        visits.ensure(grid);
         // A blind zone that holds the whole segment: every cell wants a viewpoint.
-        visits.finished(&map, &visit, true, robot, f64::INFINITY, &cam);
-        assert!(visit
-            .target
-            .iter()
-            .all(|c| visits.needs_viewpoint(grid.index(*c))));
+        let (map, visit, mut visits) = looked_at_from_on_it();
+        let grid = map.grid();
         visits.no_viewpoint(grid, &visit);
         for c in &visit.target {
             let i = grid.index(*c);
