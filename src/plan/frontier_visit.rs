@@ -202,6 +202,8 @@ impl FrontierVisits {
             return;
         }
         let grid = map.grid();
+        let in_blind_zone =
+            |c: Cell| (grid.center(c) - robot).norm_squared() <= blind_zone_m * blind_zone_m;
         // A second approach goes all the way onto the frontier, to look from on top. The motion
         // guard keeps the robot's disc off never-seen cells, so beside unseen floor it stops short,
         // blocked; stopped within the blind zone, it stands where a look from on top would, and the
@@ -209,8 +211,7 @@ impl FrontierVisits {
         let reached = reached
             || (!visit.near_view
                 && self.approached[visit.aim]
-                && (grid.center(grid.cell(visit.aim)) - robot).norm_squared()
-                    <= blind_zone_m * blind_zone_m);
+                && in_blind_zone(grid.cell(visit.aim)));
         if reached {
             if visit.near_view {
                 // Given up: the cells this look could see (the missing voxel beside them was in
@@ -240,10 +241,9 @@ impl FrontierVisits {
                     }
                 }
             } else if self.approached[visit.aim] {
-                let blind2 = blind_zone_m * blind_zone_m;
                 for c in &visit.target {
                     let i = grid.index(*c);
-                    if self.approached[i] && (grid.center(*c) - robot).norm_squared() <= blind2 {
+                    if self.approached[i] && in_blind_zone(*c) {
                         if self.topped[i] {
                             self.unobservable[i] = true;
                         }
@@ -251,10 +251,9 @@ impl FrontierVisits {
                     }
                 }
             } else {
-                let blind2 = blind_zone_m * blind_zone_m;
                 for c in &visit.target {
                     let i = grid.index(*c);
-                    if (grid.center(*c) - robot).norm_squared() > blind2 {
+                    if !in_blind_zone(*c) {
                         self.approached[i] = true;
                     } else if !self.approached[i] {
                         self.blinded[i] = true;
