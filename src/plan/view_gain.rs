@@ -401,6 +401,8 @@ impl VolumeViews {
     /// Brings the gains of `candidates` up to date with `map`: evaluates (in parallel) those never
     /// evaluated and those within the camera's range of a column that changed since the last call,
     /// and keeps the rest. The same gains as evaluating every candidate, whatever the thread count.
+    /// A kept gain of a cell that is not a candidate this time is dropped by the same rule, so that
+    /// a cell that is a candidate again later does not keep a gain from before changes it missed.
     fn refresh_gains(&mut self, map: &Map, candidates: &[(f32, usize)]) {
         let grid = *map.grid();
         let occ = map.occupancy();
@@ -411,10 +413,15 @@ impl VolumeViews {
         // A ray reaches `max_range_m` horizontally at most; a cell more for rounding at its end.
         let reach = self.model.max_range_m / grid.res + 1.0;
         let changed = ChangedNear::new(&grid, &occ.columns_changed_after(self.gains_frame), reach);
+        for (i, gain) in self.gains.iter_mut().enumerate() {
+            if !gain.is_nan() && changed.any_within(&grid, i) {
+                *gain = f64::NAN;
+            }
+        }
         let stale: Vec<usize> = candidates
             .iter()
             .map(|&(_, i)| i)
-            .filter(|&i| self.gains[i].is_nan() || changed.any_within(&grid, i))
+            .filter(|&i| self.gains[i].is_nan())
             .collect();
         if stale.is_empty() {
             self.gains_frame = occ.frames();
@@ -779,10 +786,10 @@ mod tests {
     /// after new frames at the east end, a second view comes out the same as from views that
     /// evaluate every candidate again, every candidate's gain is the same to the bit, and those out
     /// of the camera's range of every changed column were not evaluated again.
-    #[test]
-    fn gains_kept_between_calls_equal_fresh_ones() {
-        let cfg = Config::default();
-        let grid = floor_grid(&cfg, 8.0);
+    /// A 14 m × 4 m corridor seen from x = −5 and x = 0 (turning once at each), its distance field
+    /// from the west end, and the scene to take more frames of.
+    fn corridor_seen_from_the_west(cfg: &Config) -> (GridSpec, MeshBvh, Map, DistanceField) {
+        let grid = floor_grid(cfg, 8.0);
         let mut mesh = TriMesh::default();
         push_box(&mut mesh, [-9.0, -9.0, -0.1], [9.0, 9.0, 0.0]);
         push_box(&mut mesh, [-7.1, -2.1, 0.0], [7.1, -2.0, 2.0]);
@@ -791,23 +798,39 @@ mod tests {
         push_box(&mut mesh, [7.0, -2.1, 0.0], [7.1, 2.1, 2.0]);
         let bvh = MeshBvh::new(&mesh).unwrap();
         let around = |x: f64| (0..32).map(move |i| Pose2::new(x, 0.0, i as f64 * TAU / 32.0));
-        let mut map = seen_from(grid, &cfg, &bvh, around(-5.0).chain(around(0.0)));
+        let map = seen_from(grid, cfg, &bvh, around(-5.0).chain(around(0.0)));
+        let df = corridor_field(&grid, &map, |_| true);
+        (grid, bvh, map, df)
+    }
+
+    /// The distance field from the corridor's west end over the traversable cells `keep` accepts.
+    fn corridor_field(grid: &GridSpec, map: &Map, keep: impl Fn(usize) -> bool) -> DistanceField {
         let start = grid.index(grid.cell_of(Point2::new(-5.0, 1.0)).unwrap());
         assert!(map.is_traversable(start));
-        let df = Search::new(&grid).distance_field(
-            &grid,
-            |i| map.is_traversable(i).then_some(0.1),
+        Search::new(grid).distance_field(
+            grid,
+            |i| (map.is_traversable(i) && keep(i)).then_some(0.1),
             start,
             f32::INFINITY,
-        );
+        )
+    }
+
+    /// Eight frames at the corridor's east end, turning once: they change the map there only.
+    fn look_around_the_east_end(cfg: &Config, bvh: &MeshBvh, map: &mut Map) {
+        let cam = crate::sensor::DepthCamera::new(&cfg.camera);
+        for i in 0..8 {
+            map.integrate(&cam.capture(bvh, Pose2::new(5.0, 0.0, i as f64 * TAU / 8.0)));
+        }
+    }
+
+    #[test]
+    fn gains_kept_between_calls_equal_fresh_ones() {
+        let cfg = Config::default();
+        let (grid, bvh, mut map, df) = corridor_seen_from_the_west(&cfg);
         let mut kept = views_with_cutoff(0.01).unwrap();
         assert!(kept.next(&map, &df).is_some());
         let first = kept.evaluated;
-        // New frames at the east end change the map there only.
-        let cam = crate::sensor::DepthCamera::new(&cfg.camera);
-        for i in 0..8 {
-            map.integrate(&cam.capture(&bvh, Pose2::new(5.0, 0.0, i as f64 * TAU / 8.0)));
-        }
+        look_around_the_east_end(&cfg, &bvh, &mut map);
         let mut fresh = kept.clone();
         fresh.gains.clear();
         let (a, b) = (kept.next(&map, &df), fresh.next(&map, &df));
@@ -825,6 +848,45 @@ mod tests {
             again < all,
             "nothing was kept: {again} of {all} evaluated again"
         );
+    }
+
+    /// A cell whose gain was kept, and that was out of the candidates (out of the distance field's
+    /// reach) when the map changed near it, gets the gain of the changed map once it is a candidate
+    /// again, not the one from before.
+    #[test]
+    fn a_gain_out_of_reach_when_the_map_changed_is_evaluated_again() {
+        let cfg = Config::default();
+        let (grid, bvh, mut map, df) = corridor_seen_from_the_west(&cfg);
+        let mut kept = views_with_cutoff(0.01).unwrap();
+        let east = |i: usize| grid.center(grid.cell(i)).x > 3.0;
+        let before: Vec<(usize, f64)> = kept
+            .open(&map, &df)
+            .iter()
+            .map(|(_, v)| (v.cell, v.gain_m3))
+            .filter(|&(i, _)| east(i))
+            .collect();
+        assert!(!before.is_empty());
+        look_around_the_east_end(&cfg, &bvh, &mut map);
+        let west_only = corridor_field(&grid, &map, |i| !east(i));
+        assert!(kept
+            .open(&map, &west_only)
+            .iter()
+            .all(|(_, v)| !east(v.cell)));
+        let df = corridor_field(&grid, &map, |_| true);
+        kept.open(&map, &df);
+        let mut fresh = kept.clone();
+        fresh.gains.clear();
+        fresh.open(&map, &df);
+        let mut moved = 0;
+        for &(i, old) in &before {
+            assert_eq!(
+                kept.gains[i].to_bits(),
+                fresh.gains[i].to_bits(),
+                "cell {i}"
+            );
+            moved += usize::from(fresh.gains[i] != old);
+        }
+        assert!(moved > 0, "the frames changed no gain east");
     }
 
     /// The disc of changed columns finds exactly the cells with a changed column whose nearest
