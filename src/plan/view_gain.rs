@@ -782,10 +782,6 @@ mod tests {
         assert_eq!(views.taken.get(), Some(1.0));
     }
 
-    /// Gains kept from an earlier call are the gains a fresh evaluation gives: in a 14 m long room,
-    /// after new frames at the east end, a second view comes out the same as from views that
-    /// evaluate every candidate again, every candidate's gain is the same to the bit, and those out
-    /// of the camera's range of every changed column were not evaluated again.
     /// A 14 m × 4 m corridor seen from x = −5 and x = 0 (turning once at each), its distance field
     /// from the west end, and the scene to take more frames of.
     fn corridor_seen_from_the_west(cfg: &Config) -> (GridSpec, MeshBvh, Map, DistanceField) {
@@ -823,6 +819,10 @@ mod tests {
         }
     }
 
+    /// Gains kept from an earlier call are the gains a fresh evaluation gives: in a 14 m long room,
+    /// after new frames at the east end, a second view comes out the same as from views that
+    /// evaluate every candidate again, every candidate's gain is the same to the bit, and those out
+    /// of the camera's range of every changed column were not evaluated again.
     #[test]
     fn gains_kept_between_calls_equal_fresh_ones() {
         let cfg = Config::default();
