@@ -169,6 +169,12 @@ impl Greedy {
                     // Then at the unknown volume no frontier shows, if on.
                     let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, &df))
                     else {
+                        if self
+                            .visits
+                            .reopen_seeable(map, &df, &cells, &ctx.cfg.camera)
+                        {
+                            return Ok(Action::LookAround);
+                        }
                         return Ok(Action::Complete);
                     };
                     self.goal_kind = GoalKind::VolumeView;

@@ -405,6 +405,12 @@ impl Nbv {
             let done = |i: usize| self.distant_done[i] || self.given_up[i];
             let view_m = self.view_m;
             let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
+                if self
+                    .visits
+                    .reopen_seeable(map, &df, &segments, &ctx.cfg.camera)
+                {
+                    return Ok(Action::LookAround);
+                }
                 return Ok(Action::Complete);
             };
             self.stats.distant_views.add(1.0);

@@ -239,6 +239,10 @@ impl Thp {
                     let (action, _) = follow_to(&grid, df, view.cell, true, false);
                     return Ok(Choice::Act(action));
                 }
+                let camera = &ctx.cfg.camera;
+                if self.visits.reopen_seeable(map, df, &segment_cells, camera) {
+                    return Ok(Choice::Act(Action::LookAround));
+                }
                 return Ok(Choice::Act(Action::Complete));
             };
             let visit = f.visit(&grid, &segment_cells, true);
