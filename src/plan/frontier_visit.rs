@@ -17,9 +17,10 @@
 //! often out of view. A viewpoint is first sought where the camera surely sees the aimed voxel (its
 //! centre, through no occupied voxel), then where it may see it (a point of the voxel, past the ray
 //! hits of the occupied voxels on the way: [`Sight`]); a look gives a cell up at once only if the
-//! camera surely saw it. Before calling the map done, a planner reopens once each given-up frontier
-//! cell it can reach whose unknown floor the camera would surely see from a reachable cell of the
-//! final map ([`FrontierVisits::reopen_seeable`]): a look from a chosen viewpoint then decides it.
+//! camera surely saw it. Before calling the map done, a planner reopens each given-up frontier cell
+//! it can reach whose unknown floor the camera would surely see from a reachable cell of the final
+//! map ([`FrontierVisits::reopen_seeable`]): a look from a chosen viewpoint then decides it, and a
+//! cell is reopened so at most [`MAX_REOPENS`] times.
 
 use super::search::DistanceField;
 use crate::config::{CameraConfig, SearchConfig};
@@ -78,11 +79,16 @@ pub struct FrontierVisits {
     blinded: Vec<bool>,
     /// Looks from a viewpoint chosen to see the cell.
     near_looks: Vec<u8>,
-    /// Given up, then reopened once before `Complete` ([`FrontierVisits::reopen_seeable`]).
-    reopened: Vec<bool>,
+    /// Times given up and then reopened before `Complete` ([`FrontierVisits::reopen_seeable`]), at
+    /// most [`MAX_REOPENS`].
+    reopened: Vec<u8>,
     /// Failed attempts per aimed-at cell.
     attempts: Vec<(usize, u32)>,
 }
+
+/// Times a given-up frontier cell may be reopened before `Complete`
+/// ([`FrontierVisits::reopen_seeable`]).
+const MAX_REOPENS: u8 = 3;
 
 impl FrontierVisits {
     /// Sizes the memory for `grid` (a no-op once sized).
@@ -93,7 +99,7 @@ impl FrontierVisits {
             self.topped = vec![false; grid.cells()];
             self.blinded = vec![false; grid.cells()];
             self.near_looks = vec![0; grid.cells()];
-            self.reopened = vec![false; grid.cells()];
+            self.reopened = vec![0; grid.cells()];
             self.attempts.clear();
         }
     }
@@ -138,15 +144,18 @@ impl FrontierVisits {
         }
     }
 
-    /// Before calling the map done: reopens, once each, the given-up frontier cells of `segments`
-    /// that `df` reaches and whose lowest unknown voxel beside them the camera would surely see
-    /// ([`Sight::Sure`]) from a reachable cell within its depth range. A reopened cell next gets
-    /// one look from a viewpoint chosen to see it, and that look gives it up for good. Returns
-    /// whether any was reopened.
+    /// Before calling the map done: reopens the given-up frontier cells of `segments` that `df`
+    /// reaches and whose lowest unknown voxel beside them the camera would surely see
+    /// ([`Sight::Sure`]) from a reachable cell within its depth range, each at most
+    /// [`MAX_REOPENS`] times. A reopened cell next gets one look from a viewpoint chosen to see it,
+    /// and that look gives it up again. Returns whether any was reopened.
     ///
     /// The map at the end of a run is not the map of the look that gave a cell up: on real plans
     /// the ground truth's camera saw the voxels beside frontiers left at `complete` from cells the
-    /// final map held standable, and the map's own sight test agreed from most of them.
+    /// final map held standable, and the map's own sight test agreed from most of them. A look
+    /// can also change the map it was chosen by: traced on real plans, the look from a viewpoint
+    /// that surely saw the voxel left it unknown and no longer in sight from there (what it saw on
+    /// the way now stood in the line), while another reachable cell surely saw it.
     pub fn reopen_seeable(
         &mut self,
         map: &Map,
@@ -157,16 +166,16 @@ impl FrontierVisits {
         let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
         let mut any = false;
         for &i in segments.iter().flatten() {
-            if !self.unobservable[i] || self.reopened[i] || df.cost_to(i).is_none() {
+            if !self.unobservable[i] || self.reopened[i] >= MAX_REOPENS || df.cost_to(i).is_none() {
                 continue;
             }
-            self.reopened[i] = true;
             let lowest = lowest_unknown_beside(map, i);
             if lowest.is_empty() {
                 continue;
             }
             let wide = viewpoint_ring(map, df, i, near, far);
             if first_sighted(map, &wide, &lowest, camera, Sight::Sure).is_some() {
+                self.reopened[i] += 1;
                 self.unobservable[i] = false;
                 self.topped[i] = true;
                 self.near_looks[i] = self.near_looks[i].max(1);
@@ -898,11 +907,13 @@ mod tests {
         assert!(visits.is_unobservable(visit.aim));
     }
 
-    /// Before `Complete`, a frontier cell given up after two failed attempts is reopened once when
-    /// the camera would surely see the unknown floor beside it from a reachable cell: it next wants
-    /// a viewpoint, a second call does not reopen it, and the look from the viewpoint gives it up.
+    /// Before `Complete`, a frontier cell given up after two failed attempts is reopened when the
+    /// camera would surely see the unknown floor beside it from a reachable cell: it next wants a
+    /// viewpoint, a second call before its look does not count again, and the look from the
+    /// viewpoint gives it up. While the voxel stays unknown and in sight that repeats, at most
+    /// `MAX_REOPENS` times; then the cell stays given up.
     #[test]
-    fn a_given_up_cell_the_camera_would_see_is_reopened_once_before_complete() {
+    fn a_given_up_cell_the_camera_would_see_is_reopened_a_bounded_number_of_times() {
         let cfg = Config::default();
         let cam = cfg.camera.clone();
         let (grid, bvh) = furnished_room_setup(&cfg);
@@ -950,22 +961,28 @@ mod tests {
             visits.finished(&map, &visit, false, robot, 1.0, &cam);
         }
         assert!(visits.is_unobservable(aim));
-        assert!(visits.reopen_seeable(&map, &df, &segments, &cam));
-        assert!(!visits.is_unobservable(aim) && visits.needs_viewpoint(aim));
-        assert!(!visits.reopen_seeable(&map, &df, &segments, &cam));
         let viewpoint = sighted_viewpoint(&map, &df, aim, 1.2, &cam).expect("a viewpoint");
         let look = Visit {
             near_view: true,
             ..visit.clone()
         };
-        visits.finished(
-            &map,
-            &look,
-            true,
-            grid.center(grid.cell(viewpoint)),
-            1.0,
-            &cam,
-        );
+        // The map does not change here, so the voxel stays unknown and in sight after every look.
+        for _ in 0..MAX_REOPENS {
+            assert!(visits.reopen_seeable(&map, &df, &segments, &cam));
+            assert!(!visits.is_unobservable(aim) && visits.needs_viewpoint(aim));
+            assert!(!visits.reopen_seeable(&map, &df, &segments, &cam));
+            visits.finished(
+                &map,
+                &look,
+                true,
+                grid.center(grid.cell(viewpoint)),
+                1.0,
+                &cam,
+            );
+            assert!(visits.is_unobservable(aim));
+        }
+        // (Cells of the segment first given up by a look may still be reopened; the aim is not.)
+        visits.reopen_seeable(&map, &df, &segments, &cam);
         assert!(visits.is_unobservable(aim));
     }
 
