@@ -18,9 +18,9 @@
 //! centre, through no occupied voxel), then where it may see it (a point of the voxel, past the ray
 //! hits of the occupied voxels on the way: [`Sight`]); a look gives a cell up at once only if the
 //! camera surely saw it. Before calling the map done, a planner reopens each given-up frontier cell
-//! it can reach whose unknown floor the camera would surely see from a reachable cell of the final
-//! map ([`FrontierVisits::reopen_seeable`]): a look from a chosen viewpoint then decides it, and a
-//! cell is reopened so at most [`MAX_REOPENS`] times.
+//! it can reach whose unknown floor the camera would see from a reachable cell of the final map
+//! ([`FrontierVisits::reopen_seeable`]: the first time if it may see it, later only if it surely
+//! does, at most [`MAX_REOPENS`] times): a look from a chosen viewpoint then decides it.
 
 use super::search::DistanceField;
 use crate::config::{CameraConfig, SearchConfig};
@@ -145,10 +145,11 @@ impl FrontierVisits {
     }
 
     /// Before calling the map done: reopens the given-up frontier cells of `segments` that `df`
-    /// reaches and whose lowest unknown voxel beside them the camera would surely see
-    /// ([`Sight::Sure`]) from a reachable cell within its depth range, each at most
-    /// [`MAX_REOPENS`] times. A reopened cell next gets one look from a viewpoint chosen to see it,
-    /// and that look gives it up again. Returns whether any was reopened.
+    /// reaches and whose lowest unknown voxel beside them the camera would see from a reachable cell
+    /// within its depth range: the first time if it may see it ([`Sight::Possible`]), later only if
+    /// it surely does ([`Sight::Sure`]), at most [`MAX_REOPENS`] times a cell. A reopened cell next
+    /// gets one look from a viewpoint chosen to see it, and that look gives it up again. Returns
+    /// the cells reopened.
     ///
     /// The map at the end of a run is not the map of the look that gave a cell up: on real plans
     /// the ground truth's camera saw the voxels beside frontiers left at `complete` from cells the
@@ -156,17 +157,23 @@ impl FrontierVisits {
     /// can also change the map it was chosen by: traced on real plans, the look from a viewpoint
     /// that surely saw the voxel left it unknown and no longer in sight from there (what it saw on
     /// the way now stood in the line), while another reachable cell surely saw it.
+    ///
+    /// A cell counts as given up here, or where `given_up_elsewhere` says so (a planner's own
+    /// marks: NBV-TSP gives up frontier cells as viewpoints); the caller clears its own marks of
+    /// the cells returned.
     pub fn reopen_seeable(
         &mut self,
         map: &Map,
         df: &DistanceField,
         segments: &[Vec<usize>],
         camera: &CameraConfig,
-    ) -> bool {
+        given_up_elsewhere: impl Fn(usize) -> bool,
+    ) -> Vec<usize> {
         let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
-        let mut any = false;
+        let mut reopened = Vec::new();
         for &i in segments.iter().flatten() {
-            if !self.unobservable[i] || self.reopened[i] >= MAX_REOPENS || df.cost_to(i).is_none() {
+            let given_up = self.unobservable[i] || given_up_elsewhere(i);
+            if !given_up || self.reopened[i] >= MAX_REOPENS || df.cost_to(i).is_none() {
                 continue;
             }
             let lowest = lowest_unknown_beside(map, i);
@@ -174,15 +181,18 @@ impl FrontierVisits {
                 continue;
             }
             let wide = viewpoint_ring(map, df, i, near, far);
-            if first_sighted(map, &wide, &lowest, camera, Sight::Sure).is_some() {
+            // The first reopening takes a cell the camera may see; later ones only a cell it surely
+            // sees, so that a voxel the map cannot place in sight costs one look, not three.
+            let seen_from = |s: Sight| first_sighted(map, &wide, &lowest, camera, s).is_some();
+            if seen_from(Sight::Sure) || (self.reopened[i] == 0 && seen_from(Sight::Possible)) {
                 self.reopened[i] += 1;
                 self.unobservable[i] = false;
                 self.topped[i] = true;
                 self.near_looks[i] = self.near_looks[i].max(1);
-                any = true;
+                reopened.push(i);
             }
         }
-        any
+        reopened
     }
 
     /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
@@ -968,9 +978,13 @@ mod tests {
         };
         // The map does not change here, so the voxel stays unknown and in sight after every look.
         for _ in 0..MAX_REOPENS {
-            assert!(visits.reopen_seeable(&map, &df, &segments, &cam));
+            assert!(visits
+                .reopen_seeable(&map, &df, &segments, &cam, |_| false)
+                .contains(&aim));
             assert!(!visits.is_unobservable(aim) && visits.needs_viewpoint(aim));
-            assert!(!visits.reopen_seeable(&map, &df, &segments, &cam));
+            assert!(!visits
+                .reopen_seeable(&map, &df, &segments, &cam, |_| false)
+                .contains(&aim));
             visits.finished(
                 &map,
                 &look,
@@ -982,7 +996,7 @@ mod tests {
             assert!(visits.is_unobservable(aim));
         }
         // (Cells of the segment first given up by a look may still be reopened; the aim is not.)
-        visits.reopen_seeable(&map, &df, &segments, &cam);
+        visits.reopen_seeable(&map, &df, &segments, &cam, |_| false);
         assert!(visits.is_unobservable(aim));
     }
 

@@ -169,10 +169,10 @@ impl Greedy {
                     // Then at the unknown volume no frontier shows, if on.
                     let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, &df))
                     else {
-                        if self
-                            .visits
-                            .reopen_seeable(map, &df, &cells, &ctx.cfg.camera)
-                        {
+                        let camera = &ctx.cfg.camera;
+                        let reopened =
+                            (self.visits).reopen_seeable(map, &df, &cells, camera, |_| false);
+                        if !reopened.is_empty() {
                             return Ok(Action::LookAround);
                         }
                         return Ok(Action::Complete);

@@ -405,10 +405,16 @@ impl Nbv {
             let done = |i: usize| self.distant_done[i] || self.given_up[i];
             let view_m = self.view_m;
             let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
-                if self
-                    .visits
-                    .reopen_seeable(map, &df, &segments, &ctx.cfg.camera)
-                {
+                // A frontier cell given up as a viewpoint counts as given up too; reopened, it is
+                // open to the looks above again.
+                let given_up = &self.given_up;
+                let camera = &ctx.cfg.camera;
+                let reopened =
+                    (self.visits).reopen_seeable(map, &df, &segments, camera, |i| given_up[i]);
+                for &i in &reopened {
+                    self.given_up[i] = false;
+                }
+                if !reopened.is_empty() {
                     return Ok(Action::LookAround);
                 }
                 return Ok(Action::Complete);

@@ -240,7 +240,9 @@ impl Thp {
                     return Ok(Choice::Act(action));
                 }
                 let camera = &ctx.cfg.camera;
-                if self.visits.reopen_seeable(map, df, &segment_cells, camera) {
+                let reopened =
+                    (self.visits).reopen_seeable(map, df, &segment_cells, camera, |_| false);
+                if !reopened.is_empty() {
                     return Ok(Choice::Act(Action::LookAround));
                 }
                 return Ok(Choice::Act(Action::Complete));
