@@ -173,6 +173,7 @@ impl FrontierVisits {
         let mut reopened = Vec::new();
         for &i in segments.iter().flatten() {
             let given_up = self.unobservable[i] || given_up_elsewhere(i);
+            // The bound is checked here too: the sight tests cost a scan of the ring.
             if !given_up || self.reopened[i] >= MAX_REOPENS || df.cost_to(i).is_none() {
                 continue;
             }
@@ -181,10 +182,8 @@ impl FrontierVisits {
                 continue;
             }
             let wide = viewpoint_ring(map, df, i, near, far);
-            // The first reopening takes a cell the camera may see; later ones only a cell it surely
-            // sees, so that a voxel the map cannot place in sight costs one look, not three.
             let seen_from = |s: Sight| first_sighted(map, &wide, &lowest, camera, s).is_some();
-            if seen_from(Sight::Sure) || (self.reopened[i] == 0 && seen_from(Sight::Possible)) {
+            if self.may_reopen(i, seen_from) {
                 self.reopened[i] += 1;
                 self.unobservable[i] = false;
                 self.topped[i] = true;
@@ -193,6 +192,16 @@ impl FrontierVisits {
             }
         }
         reopened
+    }
+
+    /// Whether the given-up cell `i` may be reopened, `seen_from(sight)` saying whether a reachable
+    /// cell sees its voxel that surely: the first time if the camera may see it, later only if it
+    /// surely does (a voxel the map cannot place in sight costs one look, not three), and at most
+    /// [`MAX_REOPENS`] times.
+    fn may_reopen(&self, i: usize, seen_from: impl Fn(Sight) -> bool) -> bool {
+        let times = self.reopened[i];
+        times < MAX_REOPENS
+            && (seen_from(Sight::Sure) || (times == 0 && seen_from(Sight::Possible)))
     }
 
     /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
@@ -998,6 +1007,24 @@ mod tests {
         // (Cells of the segment first given up by a look may still be reopened; the aim is not.)
         visits.reopen_seeable(&map, &df, &segments, &cam, |_| false);
         assert!(visits.is_unobservable(aim));
+    }
+
+    /// A cell the camera only may see is reopened the first time only; one it surely sees, up to
+    /// `MAX_REOPENS` times; one it does not see, never.
+    #[test]
+    fn a_cell_only_possibly_in_sight_is_reopened_once_and_one_surely_in_sight_up_to_the_bound() {
+        let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(1.0, 1.0), 1.8, 0.1);
+        let mut visits = FrontierVisits::default();
+        visits.ensure(&grid);
+        let possible_only = |s: Sight| s == Sight::Possible;
+        let sure = |_: Sight| true;
+        let unseen = |_: Sight| false;
+        for times in 0..=MAX_REOPENS {
+            visits.reopened[0] = times;
+            assert_eq!(visits.may_reopen(0, possible_only), times == 0, "{times}");
+            assert_eq!(visits.may_reopen(0, sure), times < MAX_REOPENS, "{times}");
+            assert!(!visits.may_reopen(0, unseen), "{times}");
+        }
     }
 
     #[test]
