@@ -154,9 +154,9 @@ impl FrontierVisits {
     /// The map at the end of a run is not the map of the look that gave a cell up: on real plans
     /// the ground truth's camera saw the voxels beside frontiers left at `complete` from cells the
     /// final map held standable, and the map's own sight test agreed from most of them. A look
-    /// can also change the map it was chosen by: traced on real plans, the look from a viewpoint
-    /// that surely saw the voxel left it unknown and no longer in sight from there (what it saw on
-    /// the way now stood in the line), while another reachable cell surely saw it.
+    /// can also change the map it was chosen by: traced on a real plan, the look from a viewpoint
+    /// that surely saw the voxel left it unknown and no longer surely in sight from there, while
+    /// another reachable cell surely saw it.
     ///
     /// A cell counts as given up here, or where `given_up_elsewhere` says so (a planner's own
     /// marks: NBV-TSP gives up frontier cells as viewpoints); the caller clears its own marks of
