@@ -2,25 +2,26 @@
 //! frontiers before `Complete`).
 //!
 //! A forward camera cannot see the floor right in front of it, so a frontier is approached in two
-//! tries: first the robot stops `view_m` short of it (along the path) and turns once in place to look
-//! into the unknown; if the frontier survives, the next approach goes all the way. A frontier cell
-//! that is still a frontier after a look from a distance and then a look from on top of it, or after
-//! a look from a viewpoint chosen to see it, or that the robot failed to reach twice, is marked
-//! unobservable and skipped from then on (THP §3.4: "done after the robot has looked at it"). A look
-//! counts only for the cells beyond the blind zone (`search.near_unknown_radius_m`) around the robot.
-//! A second approach that the motion guard stops short within the blind zone (beside never-seen
-//! floor it cannot get any nearer) counts as the look from on top, not as a failed attempt. With
-//! that and the wider sighted viewpoint ([`sighted_viewpoint`]), runs on 33 real plans × 3 starts
-//! that ended `complete` with an observable frontier left went from 20 to 14 (GREEDY) and from 24
-//! to 11 (THP) (BENCHMARKS.md, "Frontiers given up too early"). A look from a chosen viewpoint is
-//! driven to exactly (`exact_arrival`, [`super::Action::Follow`]): 0.2 m off it the aimed voxel was
-//! often out of view. A viewpoint is first sought where the camera surely sees the aimed voxel (its
-//! centre, through no occupied voxel), then where it may see it (a point of the voxel, past the ray
-//! hits of the occupied voxels on the way: [`Sight`]); a look gives a cell up at once only if the
-//! camera surely saw it. Before calling the map done, a planner reopens each given-up frontier cell
-//! it can reach whose unknown floor the camera would see from a reachable cell of the final map
-//! ([`FrontierVisits::reopen_seeable`]: the first time if it may see it, later only if it surely
-//! does, at most [`MAX_REOPENS`] times): a look from a chosen viewpoint then decides it.
+//! tries: first the robot stops `view_m` short of it (along the path) and turns once in place to
+//! look into the unknown; if the frontier survives, the next approach goes all the way. A frontier
+//! cell that is still a frontier after a look from a distance and then a look from on top of it, or
+//! after a look from a viewpoint chosen to see it, or that the robot failed to reach twice, is
+//! marked unobservable and skipped from then on (THP §3.4: "done after the robot has looked at
+//! it"). A look counts only for the cells beyond the blind zone (`search.near_unknown_radius_m`)
+//! around the robot. A second approach that the motion guard stops short within the blind zone
+//! (beside never-seen floor it cannot get any nearer) counts as the look from on top, not as a
+//! failed attempt. With that and the wider sighted viewpoint
+//! ([`FrontierVisits::sighted_viewpoint`]), runs on 33 real plans × 3 starts that ended `complete`
+//! with an observable frontier left went from 20 to 14 (GREEDY) and from 24 to 11 (THP)
+//! (BENCHMARKS.md, "Frontiers given up too early"). A look from a chosen viewpoint is driven to
+//! exactly (`exact_arrival`, [`super::Action::Follow`]): 0.2 m off it the aimed voxel was often out
+//! of view. A viewpoint is first sought where the camera surely sees the aimed voxel (its centre,
+//! through no occupied voxel), then where it may see it (a point of the voxel, past the ray hits of
+//! the occupied voxels on the way: [`Sight`]); a look gives a cell up at once only if the camera
+//! surely saw it. Before calling the map done, a planner reopens each given-up frontier cell it can
+//! reach whose unknown floor the camera would see from a reachable cell of the final map
+//! ([`FrontierVisits::reopen_seeable`]: if the camera may see it, at most [`MAX_REOPENS`] times): a
+//! look from a chosen viewpoint, away from the earlier ones where another sees it, then decides it.
 
 use super::search::DistanceField;
 use crate::config::{CameraConfig, SearchConfig};
@@ -82,6 +83,8 @@ pub struct FrontierVisits {
     /// Times given up and then reopened before `Complete` ([`FrontierVisits::reopen_seeable`]), at
     /// most [`MAX_REOPENS`].
     reopened: Vec<u8>,
+    /// Where looks from chosen viewpoints were taken: (looked-at cell, the robot's cell).
+    looked_from: Vec<(usize, usize)>,
     /// Failed attempts per aimed-at cell.
     attempts: Vec<(usize, u32)>,
 }
@@ -89,6 +92,11 @@ pub struct FrontierVisits {
 /// Times a given-up frontier cell may be reopened before `Complete`
 /// ([`FrontierVisits::reopen_seeable`]).
 const MAX_REOPENS: u8 = 3;
+
+/// Radius around a viewpoint a look at a cell was taken from within which the next viewpoint for
+/// that cell is chosen only if no cell outside does, metres: a look that did not show the voxel
+/// from there is unlikely to from a step beside it (about the robot's radius).
+const LOOKED_FROM_M: f64 = 0.3;
 
 impl FrontierVisits {
     /// Sizes the memory for `grid` (a no-op once sized).
@@ -100,6 +108,7 @@ impl FrontierVisits {
             self.blinded = vec![false; grid.cells()];
             self.near_looks = vec![0; grid.cells()];
             self.reopened = vec![0; grid.cells()];
+            self.looked_from.clear();
             self.attempts.clear();
         }
     }
@@ -124,8 +133,8 @@ impl FrontierVisits {
     }
 
     /// Whether the frontier cell is next looked at from a viewpoint chosen to see it
-    /// ([`sighted_viewpoint`]): it survived a look from a distance and one from on top of it, or it
-    /// lay in the blind zone during its first look.
+    /// ([`FrontierVisits::sighted_viewpoint`]): it survived a look from a distance and one from on
+    /// top of it, or it lay in the blind zone during its first look.
     pub fn needs_viewpoint(&self, cell: usize) -> bool {
         self.topped.get(cell).copied().unwrap_or(false)
             || self.blinded.get(cell).copied().unwrap_or(false)
@@ -145,11 +154,16 @@ impl FrontierVisits {
     }
 
     /// Before calling the map done: reopens the given-up frontier cells of `segments` that `df`
-    /// reaches and whose lowest unknown voxel beside them the camera would see from a reachable cell
-    /// within its depth range: the first time if it may see it ([`Sight::Possible`]), later only if
-    /// it surely does ([`Sight::Sure`]), at most [`MAX_REOPENS`] times a cell. A reopened cell next
-    /// gets one look from a viewpoint chosen to see it, and that look gives it up again. Returns
-    /// the cells reopened.
+    /// reaches and whose lowest unknown voxel beside them the camera may see ([`Sight::Possible`])
+    /// from a reachable cell within its depth range, at most [`MAX_REOPENS`] times a cell. A
+    /// reopened cell next gets one look from a viewpoint chosen to see it
+    /// ([`FrontierVisits::sighted_viewpoint`]: away from the earlier ones where any other sees it),
+    /// and that look gives it up again. Returns the cells reopened.
+    ///
+    /// Before, only the first reopening took a `Possible` sight and later ones needed `Sure`, and
+    /// the next look came from the same viewpoint as the last whenever the map had not changed; a
+    /// look that missed a voxel at the edge of the view from one place says little about another
+    /// (BENCHMARKS.md, "Looks from a new place").
     ///
     /// The map at the end of a run is not the map of the look that gave a cell up: on real plans
     /// the ground truth's camera saw the voxels beside frontiers left at `complete` from cells the
@@ -182,8 +196,7 @@ impl FrontierVisits {
                 continue;
             }
             let wide = viewpoint_ring(map, df, i, near, far);
-            let seen_from = |s: Sight| first_sighted(map, &wide, &lowest, camera, s).is_some();
-            if self.may_reopen(i, seen_from) {
+            if first_sighted(map, &wide, &lowest, camera, Sight::Possible).is_some() {
                 self.reopened[i] += 1;
                 self.unobservable[i] = false;
                 self.topped[i] = true;
@@ -194,14 +207,76 @@ impl FrontierVisits {
         reopened
     }
 
-    /// Whether the given-up cell `i` may be reopened, `seen_from(sight)` saying whether a reachable
-    /// cell sees its voxel that surely: the first time if the camera may see it, later only if it
-    /// surely does (a voxel the map cannot place in sight costs one look, not three), and at most
-    /// [`MAX_REOPENS`] times.
-    fn may_reopen(&self, i: usize, seen_from: impl Fn(Sight) -> bool) -> bool {
-        let times = self.reopened[i];
-        times < MAX_REOPENS
-            && (seen_from(Sight::Sure) || (times == 0 && seen_from(Sight::Possible)))
+    /// `ring` without the cells within [`LOOKED_FROM_M`] of a viewpoint a look at `cell` was taken
+    /// from.
+    fn fresh(
+        &self,
+        grid: &GridSpec,
+        cell: usize,
+        mut ring: Vec<(f32, usize)>,
+    ) -> Vec<(f32, usize)> {
+        let from: Vec<Point2<f64>> = (self.looked_from.iter())
+            .filter(|&&(c, _)| c == cell)
+            .map(|&(_, v)| grid.center(grid.cell(v)))
+            .collect();
+        if !from.is_empty() {
+            ring.retain(|&(_, v)| {
+                let p = grid.center(grid.cell(v));
+                from.iter().all(|f| (p - f).norm() > LOOKED_FROM_M)
+            });
+        }
+        ring
+    }
+
+    /// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from which
+    /// the camera surely sees the lowest unknown voxel of an Unknown column beside it
+    /// ([`Sight::Sure`]). Where no cell of that ring does, the least-cost cell within the camera's depth
+    /// range of `aim` that surely sees such a voxel; then the same two rings for a cell that may see it
+    /// ([`Sight::Possible`]); and failing those, a cell within the depth range that surely, then
+    /// possibly, sees any unknown voxel of those columns (a look at the upper voxels alone leaves the
+    /// column Unknown, and its second look gave the frontier up).
+    ///
+    /// The lowest voxel is what keeps the column Unknown (a column is known only with its lowest voxel,
+    /// `map.column_known_fraction`), and beside a wall or furniture only steep rays from 1–2.5 m reach
+    /// it: a viewpoint picked by cost alone often looked over it, and the frontier was given up. In a
+    /// nook no cell of the ring may see it, while the rest of the column is still in view from nearer
+    /// or farther; giving the cell up without that look ended runs `complete` with observable space
+    /// unseen beside a frontier.
+    ///
+    /// Cells within [`LOOKED_FROM_M`] of a viewpoint a look at `aim` was taken from are chosen only
+    /// where no other cell is: a second look from the same place mostly shows what the first did,
+    /// but the map may have changed since, or the robot stand a little apart.
+    pub fn sighted_viewpoint(
+        &self,
+        map: &Map,
+        df: &DistanceField,
+        aim: usize,
+        view_m: f64,
+        camera: &CameraConfig,
+    ) -> Option<usize> {
+        let ring = viewpoint_ring(map, df, aim, view_m, 2.0 * view_m);
+        let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
+        let wide = || viewpoint_ring(map, df, aim, near, far);
+        let lowest = lowest_unknown_beside(map, aim);
+        let tiers = |ring: &[(f32, usize)], wide: &dyn Fn() -> Vec<(f32, usize)>| {
+            first_sighted(map, ring, &lowest, camera, Sight::Sure).or_else(|| {
+                let wide = wide();
+                first_sighted(map, &wide, &lowest, camera, Sight::Sure)
+                    .or_else(|| first_sighted(map, ring, &lowest, camera, Sight::Possible))
+                    .or_else(|| first_sighted(map, &wide, &lowest, camera, Sight::Possible))
+                    .or_else(|| {
+                        let any = unknown_beside(map, aim);
+                        first_sighted(map, &wide, &any, camera, Sight::Sure)
+                            .or_else(|| first_sighted(map, &wide, &any, camera, Sight::Possible))
+                    })
+            })
+        };
+        if !self.looked_from.iter().any(|&(c, _)| c == aim) {
+            return tiers(&ring, &wide);
+        }
+        let grid = map.grid();
+        let fresh_ring = self.fresh(grid, aim, ring.clone());
+        tiers(&fresh_ring, &|| self.fresh(grid, aim, wide())).or_else(|| tiers(&ring, &wide))
     }
 
     /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
@@ -305,6 +380,9 @@ impl FrontierVisits {
                             .any(|&t| camera_sees(map, v, t, camera, Sight::Sure))
                     });
                     self.near_looks[i] += 1;
+                    if let Some(v) = from {
+                        self.looked_from.push((i, v));
+                    }
                     if seeable || self.near_looks[i] >= 2 {
                         self.unobservable[i] = true;
                     } else {
@@ -373,8 +451,8 @@ impl FrontierVisits {
 
 /// For the frontier cell `aim` in the camera's blind zone: the least-cost traversable cell `view_m`
 /// to `2·view_m` from it from which the camera surely, then possibly, sees the floor beside it
-/// ([`sighted_viewpoint`]'s first and third tiers); if none of that ring does, the least-cost cell
-/// of the ring.
+/// ([`FrontierVisits::sighted_viewpoint`]'s first and third tiers); if none of that ring does, the
+/// least-cost cell of the ring.
 pub fn blind_zone_viewpoint(
     map: &Map,
     df: &DistanceField,
@@ -387,43 +465,6 @@ pub fn blind_zone_viewpoint(
     first_sighted(map, &ring, &lowest, camera, Sight::Sure)
         .or_else(|| first_sighted(map, &ring, &lowest, camera, Sight::Possible))
         .or(ring.first().map(|&(_, v)| v))
-}
-
-/// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from which
-/// the camera surely sees the lowest unknown voxel of an Unknown column beside it
-/// ([`Sight::Sure`]). Where no cell of that ring does, the least-cost cell within the camera's depth
-/// range of `aim` that surely sees such a voxel; then the same two rings for a cell that may see it
-/// ([`Sight::Possible`]); and failing those, a cell within the depth range that surely, then
-/// possibly, sees any unknown voxel of those columns (a look at the upper voxels alone leaves the
-/// column Unknown, and its second look gave the frontier up).
-///
-/// The lowest voxel is what keeps the column Unknown (a column is known only with its lowest voxel,
-/// `map.column_known_fraction`), and beside a wall or furniture only steep rays from 1–2.5 m reach
-/// it: a viewpoint picked by cost alone often looked over it, and the frontier was given up. In a
-/// nook no cell of the ring may see it, while the rest of the column is still in view from nearer
-/// or farther; giving the cell up without that look ended runs `complete` with observable space
-/// unseen beside a frontier.
-pub fn sighted_viewpoint(
-    map: &Map,
-    df: &DistanceField,
-    aim: usize,
-    view_m: f64,
-    camera: &CameraConfig,
-) -> Option<usize> {
-    let ring = viewpoint_ring(map, df, aim, view_m, 2.0 * view_m);
-    let lowest = lowest_unknown_beside(map, aim);
-    first_sighted(map, &ring, &lowest, camera, Sight::Sure).or_else(|| {
-        let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
-        let wide = viewpoint_ring(map, df, aim, near, far);
-        first_sighted(map, &wide, &lowest, camera, Sight::Sure)
-            .or_else(|| first_sighted(map, &ring, &lowest, camera, Sight::Possible))
-            .or_else(|| first_sighted(map, &wide, &lowest, camera, Sight::Possible))
-            .or_else(|| {
-                let any = unknown_beside(map, aim);
-                first_sighted(map, &wide, &any, camera, Sight::Sure)
-                    .or_else(|| first_sighted(map, &wide, &any, camera, Sight::Possible))
-            })
-    })
 }
 
 /// The reachable traversable cells `from_m` to `to_m` from `aim`, by cost (then index).
@@ -586,7 +627,9 @@ fn segment_meets_box(
     };
     // Tested as the segment's bounding box in plan view against the box: exact for a segment along
     // an axis, and for a diagonal one it may call a pass by the box's corner a hit (conservative:
-    // it never sees through the hits).
+    // it never sees through the hits). The exact test (the segment clipped to the box) was tried
+    // and not kept: it let viewpoints whose lines graze a wall's end pass, and looks from them
+    // missed more (BENCHMARKS.md, 2026-11-27 evening).
     let (x0, x1) = (origin.x + dir.x * t_in, origin.x + dir.x * t_out);
     let (y0, y1) = (origin.y + dir.y * t_in, origin.y + dir.y * t_out);
     x0.max(x1) >= f64::from(b.min[0])
@@ -929,8 +972,9 @@ mod tests {
     /// Before `Complete`, a frontier cell given up after two failed attempts is reopened when the
     /// camera would surely see the unknown floor beside it from a reachable cell: it next wants a
     /// viewpoint, a second call before its look does not count again, and the look from the
-    /// viewpoint gives it up. While the voxel stays unknown and in sight that repeats, at most
-    /// `MAX_REOPENS` times; then the cell stays given up.
+    /// viewpoint gives it up. While the voxel stays unknown and in sight that repeats, each look
+    /// from a viewpoint away from the earlier ones, at most `MAX_REOPENS` times; then the cell
+    /// stays given up. Where every cell was looked from, the viewpoint is the one chosen first.
     #[test]
     fn a_given_up_cell_the_camera_would_see_is_reopened_a_bounded_number_of_times() {
         let cfg = Config::default();
@@ -980,11 +1024,11 @@ mod tests {
             visits.finished(&map, &visit, false, robot, 1.0, &cam);
         }
         assert!(visits.is_unobservable(aim));
-        let viewpoint = sighted_viewpoint(&map, &df, aim, 1.2, &cam).expect("a viewpoint");
         let look = Visit {
             near_view: true,
             ..visit.clone()
         };
+        let mut looked_from: Vec<Point2<f64>> = Vec::new();
         // The map does not change here, so the voxel stays unknown and in sight after every look.
         for _ in 0..MAX_REOPENS {
             assert!(visits
@@ -994,37 +1038,47 @@ mod tests {
             assert!(!visits
                 .reopen_seeable(&map, &df, &segments, &cam, |_| false)
                 .contains(&aim));
-            visits.finished(
-                &map,
-                &look,
-                true,
-                grid.center(grid.cell(viewpoint)),
-                1.0,
-                &cam,
-            );
+            let viewpoint = visits
+                .sighted_viewpoint(&map, &df, aim, 1.2, &cam)
+                .expect("a viewpoint");
+            let at = grid.center(grid.cell(viewpoint));
+            assert!(looked_from.iter().all(|p| (p - at).norm() > LOOKED_FROM_M));
+            looked_from.push(at);
+            visits.finished(&map, &look, true, at, 1.0, &cam);
             assert!(visits.is_unobservable(aim));
         }
         // (Cells of the segment first given up by a look may still be reopened; the aim is not.)
         visits.reopen_seeable(&map, &df, &segments, &cam, |_| false);
         assert!(visits.is_unobservable(aim));
+        // With a look recorded from every cell, the viewpoint is the one chosen with none.
+        let first = FrontierVisits::default().sighted_viewpoint(&map, &df, aim, 1.2, &cam);
+        assert!(first.is_some());
+        visits
+            .looked_from
+            .extend((0..grid.cells()).map(|k| (aim, k)));
+        assert_eq!(visits.sighted_viewpoint(&map, &df, aim, 1.2, &cam), first);
     }
 
-    /// A cell the camera only may see is reopened the first time only; one it surely sees, up to
-    /// `MAX_REOPENS` times; one it does not see, never.
+    /// A look at a cell from a viewpoint rules out the viewpoints within `LOOKED_FROM_M` of it for
+    /// that cell only.
     #[test]
-    fn a_cell_only_possibly_in_sight_is_reopened_once_and_one_surely_in_sight_up_to_the_bound() {
-        let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(1.0, 1.0), 1.8, 0.1);
+    fn viewpoints_near_where_a_cell_was_looked_at_from_are_not_chosen_for_it_again() {
+        let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(3.0, 1.0), 1.8, 0.1);
+        let at = |x: f64| grid.index(grid.cell_at(x, 0.55));
         let mut visits = FrontierVisits::default();
         visits.ensure(&grid);
-        let possible_only = |s: Sight| s == Sight::Possible;
-        let sure = |_: Sight| true;
-        let unseen = |_: Sight| false;
-        for times in 0..=MAX_REOPENS {
-            visits.reopened[0] = times;
-            assert_eq!(visits.may_reopen(0, possible_only), times == 0, "{times}");
-            assert_eq!(visits.may_reopen(0, sure), times < MAX_REOPENS, "{times}");
-            assert!(!visits.may_reopen(0, unseen), "{times}");
-        }
+        visits.looked_from.push((at(0.05), at(1.05)));
+        let ring: Vec<(f32, usize)> = [0.65, 0.85, 1.05, 1.25, 1.45]
+            .iter()
+            .map(|&x| (x as f32, at(x)))
+            .collect();
+        let kept: Vec<usize> = visits
+            .fresh(&grid, at(0.05), ring.clone())
+            .iter()
+            .map(|r| r.1)
+            .collect();
+        assert_eq!(kept, vec![at(0.65), at(1.45)]);
+        assert_eq!(visits.fresh(&grid, at(0.15), ring.clone()), ring);
     }
 
     #[test]

@@ -18,8 +18,7 @@
 //! chosen for a frontier counts under `frontier`), to compare with THP's split of the same names.
 
 use super::frontier_visit::{
-    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint,
-    FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit,
 };
 use super::view_gain::VolumeViews;
 use super::{Action, Count, Odometer, Plan, PlanContext, Planner};
@@ -220,7 +219,10 @@ impl Greedy {
                 aim: goal,
                 near_view: true,
             };
-            match sighted_viewpoint(map, &df, goal, view_m, &ctx.cfg.camera) {
+            match self
+                .visits
+                .sighted_viewpoint(map, &df, goal, view_m, &ctx.cfg.camera)
+            {
                 Some(v) => {
                     self.visit = Some(visit);
                     let action;

@@ -34,19 +34,18 @@
 //! - Before answering `Complete`, every frontier segment is tried as a viewpoint, so that a random
 //!   sampler's miss cannot end the run early. The robot aims at the segment's least-cost cell not
 //!   given up and looks at it from a cell from which the camera sees the floor beside it
-//!   ([`super::frontier_visit::sighted_viewpoint`]), else from the cell itself: from on top, the
-//!   camera's blind zone hides that floor, and the frontier was left for good. A cell is given up
-//!   by GREEDY's and THP's rules ([`super::frontier_visit::FrontierVisits`]): after a look from
-//!   where the camera could see it, a second look, or two failed approaches. (With every cell
+//!   ([`super::frontier_visit::FrontierVisits::sighted_viewpoint`]), else from the cell itself:
+//!   from on top, the camera's blind zone hides that floor, and the frontier was left for good. A
+//!   cell is given up by GREEDY's and THP's rules ([`super::frontier_visit::FrontierVisits`]):
+//!   after a look from where the camera could see it, a second look, or two failed approaches;
+//!   the next viewpoint for it is chosen away from those looked from. (With every cell
 //!   within the sampling radius of a reached anchor given up instead, 29 of 99 runs on real plans
 //!   ended `complete` with frontiers left; 15 with these rules, BENCHMARKS.md, "Columns known only
 //!   above the camera".) Then each frontier seen through a gap too narrow to pass is looked at
 //!   once from a reachable cell in line of sight ([`super::frontier_visit::distant_view`], shared
 //!   with GREEDY and THP).
 
-use super::frontier_visit::{
-    distant_view, follow_to, line_of_sight, sighted_viewpoint, FrontierVisits, Visit,
-};
+use super::frontier_visit::{distant_view, follow_to, line_of_sight, FrontierVisits, Visit};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::view_gain::GainModel;
 use super::{Action, Count, Plan, PlanContext, Planner};
@@ -371,8 +370,9 @@ impl Nbv {
                 let Some((_, aim)) = self.visits.cheapest_open(open, &df) else {
                     continue;
                 };
-                let cell =
-                    sighted_viewpoint(map, &df, aim, self.view_m, &ctx.cfg.camera).unwrap_or(aim);
+                let cell = (self.visits)
+                    .sighted_viewpoint(map, &df, aim, self.view_m, &ctx.cfg.camera)
+                    .unwrap_or(aim);
                 let pos = grid.center(grid.cell(cell));
                 let g = self.model.evaluate(map, pos);
                 self.stats.gain_evaluations.add(1.0);

@@ -297,7 +297,10 @@ impl Thp {
             let mut view = f.visit(&grid, &segment_cells, true);
             view.target
                 .retain(|c| self.visits.needs_viewpoint(grid.index(*c)));
-            match sighted_viewpoint(map, df, f.aim, self.view_m, &ctx.cfg.camera) {
+            match self
+                .visits
+                .sighted_viewpoint(map, df, f.aim, self.view_m, &ctx.cfg.camera)
+            {
                 Some(v) => {
                     let path = df.path_to(&grid, v).expect("reachable by construction");
                     self.set_goal(ctx, view, Some(first), &path.cells);

@@ -85,8 +85,7 @@
 //! path itself.
 
 use super::frontier_visit::{
-    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, sighted_viewpoint,
-    FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit,
 };
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
