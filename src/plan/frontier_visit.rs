@@ -228,20 +228,20 @@ impl FrontierVisits {
         ring
     }
 
-    /// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from which
-    /// the camera surely sees the lowest unknown voxel of an Unknown column beside it
-    /// ([`Sight::Sure`]). Where no cell of that ring does, the least-cost cell within the camera's depth
-    /// range of `aim` that surely sees such a voxel; then the same two rings for a cell that may see it
-    /// ([`Sight::Possible`]); and failing those, a cell within the depth range that surely, then
-    /// possibly, sees any unknown voxel of those columns (a look at the upper voxels alone leaves the
-    /// column Unknown, and its second look gave the frontier up).
+    /// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from
+    /// which the camera surely sees the lowest unknown voxel of an Unknown column beside it
+    /// ([`Sight::Sure`]). Where no cell of that ring does, the least-cost cell within the camera's
+    /// depth range of `aim` that surely sees such a voxel; then the same two rings for a cell that
+    /// may see it ([`Sight::Possible`]); and failing those, a cell within the depth range that
+    /// surely, then possibly, sees any unknown voxel of those columns (a look at the upper voxels
+    /// alone leaves the column Unknown, and its second look gave the frontier up).
     ///
-    /// The lowest voxel is what keeps the column Unknown (a column is known only with its lowest voxel,
-    /// `map.column_known_fraction`), and beside a wall or furniture only steep rays from 1–2.5 m reach
-    /// it: a viewpoint picked by cost alone often looked over it, and the frontier was given up. In a
-    /// nook no cell of the ring may see it, while the rest of the column is still in view from nearer
-    /// or farther; giving the cell up without that look ended runs `complete` with observable space
-    /// unseen beside a frontier.
+    /// The lowest voxel is what keeps the column Unknown (a column is known only with its lowest
+    /// voxel, `map.column_known_fraction`), and beside a wall or furniture only steep rays from
+    /// 1–2.5 m reach it: a viewpoint picked by cost alone often looked over it, and the frontier
+    /// was given up. In a nook no cell of the ring may see it, while the rest of the column is
+    /// still in view from nearer or farther; giving the cell up without that look ended runs
+    /// `complete` with observable space unseen beside a frontier.
     ///
     /// Cells within [`LOOKED_FROM_M`] of a viewpoint a look at `aim` was taken from are chosen only
     /// where no other cell is: a second look from the same place mostly shows what the first did,
