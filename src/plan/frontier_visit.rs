@@ -29,6 +29,7 @@ use crate::grid::{Cell, GridSpec};
 use crate::map::occupancy::{traverse_while, ObstacleBox, VoxelState};
 use crate::map::Map;
 use nalgebra::{Point2, Point3, Vector3};
+use std::cell::OnceCell;
 
 /// Failed attempts after which a frontier is given up.
 const MAX_ATTEMPTS: u32 = 2;
@@ -207,25 +208,12 @@ impl FrontierVisits {
         reopened
     }
 
-    /// `ring` without the cells within [`LOOKED_FROM_M`] of a viewpoint a look at `cell` was taken
-    /// from.
-    fn fresh(
-        &self,
-        grid: &GridSpec,
-        cell: usize,
-        mut ring: Vec<(f32, usize)>,
-    ) -> Vec<(f32, usize)> {
-        let from: Vec<Point2<f64>> = (self.looked_from.iter())
+    /// Where the looks at `cell` from chosen viewpoints were taken.
+    fn looked_from_at(&self, grid: &GridSpec, cell: usize) -> Vec<Point2<f64>> {
+        (self.looked_from.iter())
             .filter(|&&(c, _)| c == cell)
             .map(|&(_, v)| grid.center(grid.cell(v)))
-            .collect();
-        if !from.is_empty() {
-            ring.retain(|&(_, v)| {
-                let p = grid.center(grid.cell(v));
-                from.iter().all(|f| (p - f).norm() > LOOKED_FROM_M)
-            });
-        }
-        ring
+            .collect()
     }
 
     /// The least-cost traversable cell `view_m` to `2·view_m` from the frontier cell `aim` from
@@ -254,9 +242,13 @@ impl FrontierVisits {
         view_m: f64,
         camera: &CameraConfig,
     ) -> Option<usize> {
+        let grid = map.grid();
         let ring = viewpoint_ring(map, df, aim, view_m, 2.0 * view_m);
         let (near, far) = (camera.min_range_m.get(), camera.max_range_m.get());
-        let wide = || viewpoint_ring(map, df, aim, near, far);
+        // The wide ring scans the whole grid: once, and only if a tier needs it.
+        let wide_ring = OnceCell::new();
+        let wide_ring = || wide_ring.get_or_init(|| viewpoint_ring(map, df, aim, near, far));
+        let wide = || wide_ring().clone();
         let lowest = lowest_unknown_beside(map, aim);
         let tiers = |ring: &[(f32, usize)], wide: &dyn Fn() -> Vec<(f32, usize)>| {
             first_sighted(map, ring, &lowest, camera, Sight::Sure).or_else(|| {
@@ -271,12 +263,12 @@ impl FrontierVisits {
                     })
             })
         };
-        if !self.looked_from.iter().any(|&(c, _)| c == aim) {
+        let from = self.looked_from_at(grid, aim);
+        if from.is_empty() {
             return tiers(&ring, &wide);
         }
-        let grid = map.grid();
-        let fresh_ring = self.fresh(grid, aim, ring.clone());
-        tiers(&fresh_ring, &|| self.fresh(grid, aim, wide())).or_else(|| tiers(&ring, &wide))
+        let away = |ring: &[(f32, usize)]| away_from(grid, &from, ring);
+        tiers(&away(&ring), &|| away(wide_ring())).or_else(|| tiers(&ring, &wide))
     }
 
     /// Whether the robot stopped short of the frontier cell and looked at it (its next approach goes
@@ -465,6 +457,16 @@ pub fn blind_zone_viewpoint(
     first_sighted(map, &ring, &lowest, camera, Sight::Sure)
         .or_else(|| first_sighted(map, &ring, &lowest, camera, Sight::Possible))
         .or(ring.first().map(|&(_, v)| v))
+}
+
+/// The cells of `ring` farther than [`LOOKED_FROM_M`] from every point of `from`.
+fn away_from(grid: &GridSpec, from: &[Point2<f64>], ring: &[(f32, usize)]) -> Vec<(f32, usize)> {
+    (ring.iter().copied())
+        .filter(|&(_, v)| {
+            let p = grid.center(grid.cell(v));
+            from.iter().all(|f| (p - f).norm() > LOOKED_FROM_M)
+        })
+        .collect()
 }
 
 /// The reachable traversable cells `from_m` to `to_m` from `aim`, by cost (then index).
@@ -1072,13 +1074,10 @@ mod tests {
             .iter()
             .map(|&x| (x as f32, at(x)))
             .collect();
-        let kept: Vec<usize> = visits
-            .fresh(&grid, at(0.05), ring.clone())
-            .iter()
-            .map(|r| r.1)
-            .collect();
+        let away = |cell: usize| away_from(&grid, &visits.looked_from_at(&grid, cell), &ring);
+        let kept: Vec<usize> = away(at(0.05)).iter().map(|r| r.1).collect();
         assert_eq!(kept, vec![at(0.65), at(1.45)]);
-        assert_eq!(visits.fresh(&grid, at(0.15), ring.clone()), ring);
+        assert_eq!(away(at(0.15)), ring);
     }
 
     #[test]
