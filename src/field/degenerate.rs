@@ -107,6 +107,11 @@ pub fn detect(field: &FieldGrid) -> Vec<RawPoint> {
                 continue;
             }
             let v = idx.map(|i| field.ab[i]);
+            // Four corners in one quadrant wind zero times: most squares, and no need to walk them.
+            let q = quadrant(v[0]);
+            if v[1..].iter().all(|&c| quadrant(c) == q) {
+                continue;
+            }
             let w = winding(&v);
             if w != 0 {
                 let (u, t) = locate(v);

@@ -748,24 +748,31 @@ impl FieldLevel {
     }
 }
 
-/// `Σ col·row·(ta, tb, st)` with four independent accumulators (lets the compiler vectorise; the
-/// fixed order keeps results identical whatever the thread count).
+/// `Σ col·row·(ta, tb, st)` over slices of one length, with four independent accumulators per sum
+/// (lanes `k mod 4`), combined as `(l0 + l1) + (l2 + l3)`, then the last `n mod 4` terms in turn.
+/// The fixed order keeps results identical whatever the thread count, and whichever version runs:
+/// on a CPU with AVX the four lanes are one 256-bit register ([`weighted_sums_avx`]): the same
+/// products and sums in the same order, and no fused multiply-add, so the same bits.
 fn weighted_sums(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -> [f64; 3] {
     let n = col.len();
+    assert!(row.len() == n && ta.len() == n && tb.len() == n && st.len() == n);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX (checked just above) and the five slices have one length.
+        return unsafe { weighted_sums_avx(col, row, ta, tb, st) };
+    }
+    weighted_sums_lanes(col, row, ta, tb, st)
+}
+
+/// [`weighted_sums`] in portable code (the compiler vectorises the lanes for the baseline target).
+fn weighted_sums_lanes(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -> [f64; 3] {
     let mut acc = [[0.0f64; 4]; 3];
-    // Fixed-size chunks without bounds checks, so the four lanes become vector operations (the
-    // same products and sums in the same order as lane-by-lane code: results are unchanged).
     let quads = col.chunks_exact(4).zip(row.chunks_exact(4)).zip(
         ta.chunks_exact(4)
             .zip(tb.chunks_exact(4))
             .zip(st.chunks_exact(4)),
     );
     for ((c, r), ((x, y), z)) in quads {
-        let c: &[f64; 4] = c.try_into().expect("chunk of 4");
-        let r: &[f64; 4] = r.try_into().expect("chunk of 4");
-        let x: &[f64; 4] = x.try_into().expect("chunk of 4");
-        let y: &[f64; 4] = y.try_into().expect("chunk of 4");
-        let z: &[f64; 4] = z.try_into().expect("chunk of 4");
         for l in 0..4 {
             let w = c[l] * r[l];
             acc[0][l] += w * x[l];
@@ -773,11 +780,59 @@ fn weighted_sums(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f64]) -
             acc[2][l] += w * z[l];
         }
     }
-    let mut out = [0.0; 3];
-    for (o, a) in out.iter_mut().zip(acc.iter()) {
-        *o = (a[0] + a[1]) + (a[2] + a[3]);
+    finish_weighted_sums(acc, col, row, ta, tb, st)
+}
+
+/// [`weighted_sums`] with AVX intrinsics.
+///
+/// # Safety
+/// The CPU must support AVX, and the five slices must have one length.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn weighted_sums_avx(
+    col: &[f64],
+    row: &[f64],
+    ta: &[f64],
+    tb: &[f64],
+    st: &[f64],
+) -> [f64; 3] {
+    use std::arch::x86_64::*;
+    let quads = col.len() / 4 * 4;
+    let (mut a0, mut a1, mut a2) = (
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+    );
+    let mut k = 0;
+    while k < quads {
+        // SAFETY: k + 4 <= quads <= the length of every slice.
+        let load = |v: &[f64]| unsafe { _mm256_loadu_pd(v.as_ptr().add(k)) };
+        let w = _mm256_mul_pd(load(col), load(row));
+        a0 = _mm256_add_pd(a0, _mm256_mul_pd(w, load(ta)));
+        a1 = _mm256_add_pd(a1, _mm256_mul_pd(w, load(tb)));
+        a2 = _mm256_add_pd(a2, _mm256_mul_pd(w, load(st)));
+        k += 4;
     }
-    for k in n / 4 * 4..n {
+    let mut acc = [[0.0f64; 4]; 3];
+    for (out, a) in acc.iter_mut().zip([a0, a1, a2]) {
+        // SAFETY: `out` holds four f64.
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), a) };
+    }
+    finish_weighted_sums(acc, col, row, ta, tb, st)
+}
+
+/// The lanes combined, then the terms past the last whole group of four.
+#[inline(always)]
+fn finish_weighted_sums(
+    acc: [[f64; 4]; 3],
+    col: &[f64],
+    row: &[f64],
+    ta: &[f64],
+    tb: &[f64],
+    st: &[f64],
+) -> [f64; 3] {
+    let mut out = acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]));
+    for k in col.len() / 4 * 4..col.len() {
         let w = col[k] * row[k];
         out[0] += w * ta[k];
         out[1] += w * tb[k];
@@ -810,6 +865,41 @@ pub fn max_orientation_difference(
 mod tests {
     use super::*;
     use crate::field::constraints::path_constraints;
+
+    /// Every version of the weighted sums gives the same bits, for every length of the slices
+    /// (whole groups of four and the terms past them).
+    #[test]
+    fn weighted_sums_versions_agree_bit_for_bit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for n in 0..41 {
+            let mut v = || -> Vec<f64> { (0..n).map(|_| rng.random_range(-2.0..2.0)).collect() };
+            let (col, row, ta, tb, st) = (v(), v(), v(), v(), v());
+            let lanes = weighted_sums_lanes(&col, &row, &ta, &tb, &st);
+            // A plain loop in the documented order.
+            let mut acc = [[0.0f64; 4]; 3];
+            for k in 0..n / 4 * 4 {
+                let w = col[k] * row[k];
+                acc[0][k % 4] += w * ta[k];
+                acc[1][k % 4] += w * tb[k];
+                acc[2][k % 4] += w * st[k];
+            }
+            let plain = finish_weighted_sums(acc, &col, &row, &ta, &tb, &st);
+            assert_eq!(lanes.map(f64::to_bits), plain.map(f64::to_bits), "n = {n}");
+            let dispatched = weighted_sums(&col, &row, &ta, &tb, &st);
+            assert_eq!(
+                dispatched.map(f64::to_bits),
+                plain.map(f64::to_bits),
+                "n = {n}"
+            );
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx") {
+                // SAFETY: the CPU has AVX; the slices have one length.
+                let avx = unsafe { weighted_sums_avx(&col, &row, &ta, &tb, &st) };
+                assert_eq!(avx.map(f64::to_bits), plain.map(f64::to_bits), "n = {n}");
+            }
+        }
+    }
 
     fn fine() -> GridSpec {
         GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(9.0, 7.0), 1.0, 0.1)
