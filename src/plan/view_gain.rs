@@ -4,7 +4,7 @@
 
 use super::search::DistanceField;
 use crate::config::{CameraConfig, Config, NbvConfig, VolumeViewsConfig};
-use crate::grid::GridSpec;
+use crate::grid::{Cell, GridSpec};
 use crate::map::occupancy::{traverse_while, Occupancy, VoxelState};
 use crate::map::Map;
 use nalgebra::{Point2, Point3, Vector3};
@@ -43,8 +43,22 @@ pub(crate) struct GainModel {
     pub max_range_m: f64,
     /// Height band of the explored volume, metres.
     band_m: (f64, f64),
-    visibility_length_m: f64,
+    /// `1 / nbv.visibility_length_m`.
+    inv_l: f64,
+    /// ln ½ per visibility length: what an unknown voxel (unoccupancy ½) does per metre.
+    ln_half_per_m: f64,
+    /// ln [`MIN_VISIBILITY`].
+    ln_min_visibility: f64,
     cover_min_visibility: f64,
+}
+
+/// A ray's running state while its voxels are added up ([`GainModel::absorb`]).
+#[derive(Default)]
+struct RayWalk {
+    /// Natural log of the visibility so far.
+    ln_vis: f64,
+    /// Σ p·vis·t²·dt so far.
+    sum: f64,
 }
 
 /// A viewpoint's predicted observation.
@@ -89,7 +103,9 @@ impl GainModel {
             min_range_m: c.min_range_m.get(),
             max_range_m: c.max_range_m.get(),
             band_m,
-            visibility_length_m: nbv.visibility_length_m,
+            inv_l: 1.0 / nbv.visibility_length_m,
+            ln_half_per_m: 0.5f64.ln() * (1.0 / nbv.visibility_length_m),
+            ln_min_visibility: MIN_VISIBILITY.ln(),
             cover_min_visibility: nbv.cover_min_visibility,
         }
     }
@@ -122,10 +138,6 @@ impl GainModel {
     /// [`GainModel::cast`] at the azimuth whose cosine and sine are given, reading each voxel's
     /// [`attenuation`] through `att`, which may be a table of them (the same numbers, computed once
     /// for many casts). The walk ends where the visibility falls below [`MIN_VISIBILITY`].
-    ///
-    /// The visibility is carried as its logarithm: a free voxel then costs a multiply-add rather
-    /// than an `exp` (nine in ten voxels a ray crosses are free), and `exp` is taken only where an
-    /// unknown voxel in the band adds to the sum.
     #[allow(clippy::too_many_arguments)]
     fn cast_with(
         &self,
@@ -137,44 +149,95 @@ impl GainModel {
         k: usize,
         mut visit: impl FnMut(usize, f64),
     ) -> f64 {
-        let (s_el, c_el, _) = self.rows[k];
-        let dir = Vector3::new(c_el * az_cos, c_el * az_sin, s_el);
         let layer_len = grid.cells();
         // The band as flat voxel indices (a layer is a contiguous run of them): a range test per
         // unknown voxel rather than an integer division.
         let band_v = band.start * layer_len..band.end * layer_len;
-        let inv_l = 1.0 / self.visibility_length_m;
-        // An unknown voxel has unoccupancy 0.5.
-        let ln_half_per_m = 0.5f64.ln() * inv_l;
-        let ln_min = MIN_VISIBILITY.ln();
-        let mut ln_vis = 0.0f64;
-        let mut sum = 0.0;
-        traverse_while(grid, origin, dir, self.max_range_m, |v, t_in, t_out| {
-            let seg = t_out - t_in;
-            visit(v % layer_len, ln_vis);
-            let a = att(v);
-            // Free first (most voxels); ±0 (never in the table) would leave `ln_vis` as it is in
-            // either known branch.
-            if a < 0.0 {
-                // Free: `a` = ln(1 − p) per visibility length.
-                ln_vis += a * seg * inv_l;
-            } else if a >= 0.0 {
-                // Occupied: `a` = −ln(1 − p).
-                ln_vis -= a;
-            } else {
-                // Unknown (NaN).
-                let t_from = t_in.max(self.min_range_m);
-                if t_out > t_from && band_v.contains(&v) {
-                    // Midpoint rule over the part of the voxel beyond the minimum range.
-                    let t = 0.5 * (t_from + t_out);
-                    let vis_mid = (ln_vis + ln_half_per_m * (t - t_in)).exp();
-                    sum += 0.5 * vis_mid * t * t * (t_out - t_from);
-                }
-                ln_vis += ln_half_per_m * seg;
+        let mut walk = RayWalk::default();
+        traverse_while(
+            grid,
+            origin,
+            self.ray_dir(az_cos, az_sin, k),
+            self.max_range_m,
+            |v, t_in, t_out| {
+                visit(v % layer_len, walk.ln_vis);
+                self.absorb(&mut walk, &band_v, v, t_in, t_out, att(v))
+            },
+        );
+        walk.sum
+    }
+
+    /// The unit direction of the ray at the azimuth whose cosine and sine are given, in row `k`.
+    fn ray_dir(&self, az_cos: f64, az_sin: f64, k: usize) -> Vector3<f64> {
+        let (s_el, c_el, _) = self.rows[k];
+        Vector3::new(c_el * az_cos, c_el * az_sin, s_el)
+    }
+
+    /// Adds voxel `v` (attenuation `a`, entered at ray distance `t_in` and left at `t_out`) to a
+    /// ray's walk; whether the ray goes on (its visibility is still at least [`MIN_VISIBILITY`]).
+    ///
+    /// The visibility is carried as its logarithm: a free voxel then costs a multiply-add rather
+    /// than an `exp` (nine in ten voxels a ray crosses are free), and `exp` is taken only where an
+    /// unknown voxel in the band (`band_v`, flat voxel indices) adds to the sum.
+    #[inline(always)]
+    fn absorb(
+        &self,
+        walk: &mut RayWalk,
+        band_v: &Range<usize>,
+        v: usize,
+        t_in: f64,
+        t_out: f64,
+        a: f64,
+    ) -> bool {
+        let seg = t_out - t_in;
+        // Free first (most voxels); ±0 (never in the table) would leave `ln_vis` as it is in
+        // either known branch.
+        if a < 0.0 {
+            // Free: `a` = ln(1 − p) per visibility length.
+            walk.ln_vis += a * seg * self.inv_l;
+        } else if a >= 0.0 {
+            // Occupied: `a` = −ln(1 − p).
+            walk.ln_vis -= a;
+        } else {
+            // Unknown (NaN).
+            let t_from = t_in.max(self.min_range_m);
+            if t_out > t_from && band_v.contains(&v) {
+                // Midpoint rule over the part of the voxel beyond the minimum range.
+                let t = 0.5 * (t_from + t_out);
+                let vis_mid = (walk.ln_vis + self.ln_half_per_m * (t - t_in)).exp();
+                walk.sum += 0.5 * vis_mid * t * t * (t_out - t_from);
             }
-            ln_vis >= ln_min
-        });
-        sum
+            walk.ln_vis += self.ln_half_per_m * seg;
+        }
+        walk.ln_vis >= self.ln_min_visibility
+    }
+
+    /// [`GainModel::cast_with`] for the ray `ray` of `fan` from the centre of floor cell
+    /// `(cx, cy)`, reading attenuations from `table`. With `CHECKED`, the walk also ends where the
+    /// ray leaves the grid sideways (needed within the fan's reach of the grid's edge).
+    fn cast_fan<const CHECKED: bool>(
+        &self,
+        fan: &FanTemplate,
+        ray: usize,
+        table: &[f64],
+        band_v: &Range<usize>,
+        (cx, cy): (i32, i32),
+    ) -> f64 {
+        let base = cy as i64 * fan.nx as i64 + cx as i64;
+        let mut walk = RayWalk::default();
+        for s in &fan.steps[fan.rays[ray] as usize..fan.rays[ray + 1] as usize] {
+            if CHECKED {
+                let (x, y) = (cx + i32::from(s.dx), cy + i32::from(s.dy));
+                if x < 0 || y < 0 || x >= fan.nx as i32 || y >= fan.ny as i32 {
+                    break;
+                }
+            }
+            let v = (base + i64::from(s.offset)) as usize;
+            if !self.absorb(&mut walk, band_v, v, s.t_in, s.t_out, table[v]) {
+                break;
+            }
+        }
+        walk.sum
     }
 
     /// The best-yaw gain at `p` (Eq. 6 over one field of view, best of `n_az` yaws).
@@ -187,18 +250,41 @@ impl GainModel {
     fn evaluate_with(&self, grid: &GridSpec, att: impl Fn(usize) -> f64, p: Point2<f64>) -> Gain {
         let band = grid.layers_in(self.band_m.0, self.band_m.1);
         let origin = Point3::new(p.x, p.y, self.mount_m);
+        self.best_window(|a, k| {
+            self.cast_with(grid, &att, &band, origin, self.az_dirs[a], k, |_, _| {})
+        })
+    }
+
+    /// The gain at the centre of floor cell `cell` of `grid` (the grid `fan` was made for),
+    /// reading the voxels' attenuations from `table`: [`GainModel::evaluate`] up to rounding in
+    /// the last bits of the ray distances (see [`FanTemplate`]).
+    fn evaluate_fan(&self, grid: &GridSpec, fan: &FanTemplate, table: &[f64], cell: usize) -> Gain {
+        let band = grid.layers_in(self.band_m.0, self.band_m.1);
+        let band_v = band.start * grid.cells()..band.end * grid.cells();
+        let c = grid.cell(cell);
+        let inside = |v: i32, n: usize| v >= fan.reach_cells && v + fan.reach_cells < n as i32;
+        let rows = self.rows.len();
+        if inside(c.x, grid.nx) && inside(c.y, grid.ny) {
+            self.best_window(|a, k| {
+                self.cast_fan::<false>(fan, a * rows + k, table, &band_v, (c.x, c.y))
+            })
+        } else {
+            self.best_window(|a, k| {
+                self.cast_fan::<true>(fan, a * rows + k, table, &band_v, (c.x, c.y))
+            })
+        }
+    }
+
+    /// Eq. 6 from the rays' sums (`cast(a, k)` is the sum of the ray at azimuth column `a`, row
+    /// `k`): the best circular window of `window` columns, ties to the lowest start.
+    fn best_window(&self, cast: impl Fn(usize, usize) -> f64) -> Gain {
         let cols: Vec<f64> = (0..self.n_az)
             .map(|a| {
-                let az = self.az_dirs[a];
                 (0..self.rows.len())
-                    .map(|k| {
-                        let ray = self.cast_with(grid, &att, &band, origin, az, k, |_, _| {});
-                        self.rows[k].2 * ray
-                    })
+                    .map(|k| self.rows[k].2 * cast(a, k))
                     .sum()
             })
             .collect();
-        // Best circular window of `window` columns; ties to the lowest start.
         let mut sum: f64 = cols[..self.window].iter().sum();
         let (mut best, mut best_start) = (sum, 0);
         for s in 1..self.n_az {
@@ -234,6 +320,117 @@ impl GainModel {
         out.sort_unstable();
         out.dedup();
         out
+    }
+}
+
+/// The voxels each ray of a [`GainModel`]'s fan passes from the centre of a floor cell, relative
+/// to that cell, made once per grid shape. A view's gain then reads its rays' voxels from these
+/// lists rather than stepping through the grid ray by ray: the volume views score every lattice
+/// cell of the map at each view, tens of millions of voxel steps, and the stepping's branches cost
+/// more than the sums.
+///
+/// The lists come from the same traversal ([`traverse_while`]) from the centre of a cell of a grid
+/// of the same resolution and height, wide enough that no ray leaves it sideways. From a cell of
+/// the real grid the voxels are the same, and the ray distances the same up to their last bits:
+/// the traversal works in world coordinates, where the cells' centres round differently. (A ray
+/// passing within that rounding of a voxel's edge could pass another voxel there; on the shipped
+/// scenes and the 66 floor plans no run's result moved.)
+#[derive(Clone)]
+struct FanTemplate {
+    /// The grid shape the offsets are for: resolution, `nx`, `ny`, `nz`.
+    res: f64,
+    nx: usize,
+    ny: usize,
+    nz: usize,
+    /// Per ray (azimuth column `a`, row `k` at `a · rows + k`), its steps: `steps[rays[r]..rays[r + 1]]`.
+    rays: Vec<u32>,
+    steps: Vec<FanStep>,
+    /// The largest sideways offset of any step, cells: from a cell at least this far inside the
+    /// grid's edges no ray leaves the grid sideways.
+    reach_cells: i32,
+}
+
+/// One voxel of a ray in a [`FanTemplate`].
+#[derive(Clone, Copy)]
+struct FanStep {
+    /// Flat voxel index relative to the start cell's (layer 0): `layer · cells + dy · nx + dx`.
+    offset: i32,
+    dx: i16,
+    dy: i16,
+    /// Ray distances at which the ray enters and leaves the voxel, metres.
+    t_in: f64,
+    t_out: f64,
+}
+
+impl FanTemplate {
+    /// The fan of `model` for grids shaped like `grid`, or `None` when the grid is too large for
+    /// 32-bit offsets (about 2·10⁹ voxels; the gains are then cast ray by ray).
+    fn new(model: &GainModel, grid: &GridSpec) -> Option<Self> {
+        let half = (model.max_range_m / grid.res).ceil() as usize + 2;
+        let wide = GridSpec {
+            origin_x: -((half as f64) * grid.res),
+            origin_y: -((half as f64) * grid.res),
+            res: grid.res,
+            nx: 2 * half + 1,
+            ny: 2 * half + 1,
+            nz: grid.nz,
+        };
+        let centre = wide.center(Cell::new(half as i32, half as i32));
+        let origin = Point3::new(centre.x, centre.y, model.mount_m);
+        let (nx, cells) = (
+            i64::try_from(grid.nx).ok()?,
+            i64::try_from(grid.cells()).ok()?,
+        );
+        let mut rays = vec![0u32];
+        let mut steps = Vec::new();
+        let mut reach_cells = 0;
+        for &(c, s) in &model.az_dirs {
+            for k in 0..model.rows.len() {
+                let mut bad = false;
+                traverse_while(
+                    &wide,
+                    origin,
+                    model.ray_dir(c, s, k),
+                    model.max_range_m,
+                    |v, t_in, t_out| {
+                        let (cell, layer) = wide.voxel_parts(v);
+                        let at = wide.cell(cell);
+                        let (dx, dy) = (at.x - half as i32, at.y - half as i32);
+                        reach_cells = reach_cells.max(dx.abs()).max(dy.abs());
+                        let offset = layer as i64 * cells + i64::from(dy) * nx + i64::from(dx);
+                        match (i32::try_from(offset), i16::try_from(dx), i16::try_from(dy)) {
+                            (Ok(offset), Ok(dx), Ok(dy)) => steps.push(FanStep {
+                                offset,
+                                dx,
+                                dy,
+                                t_in,
+                                t_out,
+                            }),
+                            _ => bad = true,
+                        }
+                        !bad
+                    },
+                );
+                if bad {
+                    return None;
+                }
+                rays.push(u32::try_from(steps.len()).ok()?);
+            }
+        }
+        Some(FanTemplate {
+            res: grid.res,
+            nx: grid.nx,
+            ny: grid.ny,
+            nz: grid.nz,
+            rays,
+            steps,
+            reach_cells,
+        })
+    }
+
+    /// Whether this fan was made for grids shaped like `grid`.
+    fn fits(&self, grid: &GridSpec) -> bool {
+        (self.res, self.nx, self.ny, self.nz) == (grid.res, grid.nx, grid.ny, grid.nz)
     }
 }
 
@@ -279,6 +476,8 @@ pub struct VolumeViews {
     /// call scores the whole lattice, and re-evaluating all of it took seconds on a large scene.
     gains: Vec<f64>,
     gains_frame: u32,
+    /// The gain model's rays as voxel lists for the map's grid (made at the first call).
+    fan: Option<FanTemplate>,
     /// Gains evaluated so far (not reported; tests read it).
     evaluated: usize,
 }
@@ -323,6 +522,7 @@ impl VolumeViews {
             taken: super::Count::default(),
             gains: Vec::new(),
             gains_frame: 0,
+            fan: None,
             evaluated: 0,
         })
     }
@@ -438,11 +638,18 @@ impl VolumeViews {
                     *a = attenuation(occ, first + j);
                 }
             });
+        if !self.fan.as_ref().is_some_and(|f| f.fits(&grid)) {
+            self.fan = FanTemplate::new(&self.model, &grid);
+        }
+        let (model, fan) = (&self.model, self.fan.as_ref());
         let fresh: Vec<f64> = stale
             .par_iter()
-            .map(|&i| {
-                let p = grid.center(grid.cell(i));
-                self.model.evaluate_with(&grid, |v| table[v], p).volume_m3
+            .map(|&i| match fan {
+                Some(fan) => model.evaluate_fan(&grid, fan, &table, i).volume_m3,
+                None => {
+                    let p = grid.center(grid.cell(i));
+                    model.evaluate_with(&grid, |v| table[v], p).volume_m3
+                }
             })
             .collect();
         for (&i, g) in stale.iter().zip(fresh) {
@@ -693,6 +900,109 @@ mod tests {
             f32::INFINITY,
         );
         (map, df)
+    }
+
+    /// A grid whose origin is not a multiple of its resolution, as a scene's is.
+    fn offset_grid(cfg: &Config) -> GridSpec {
+        GridSpec::covering(
+            Point2::new(-4.37, -2.93),
+            Point2::new(7.21, 5.66),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        )
+    }
+
+    /// From cells in the middle and at every edge and corner of a grid, each ray of the fan lists
+    /// the voxels the ray-by-ray traversal passes, in order and up to where it leaves the grid,
+    /// with the same entry and exit distances up to rounding.
+    #[test]
+    fn fan_rays_pass_the_voxels_of_the_ray_by_ray_walk() {
+        let cfg = Config::default();
+        let grid = offset_grid(&cfg);
+        let model = GainModel::new(
+            &cfg.camera,
+            (cfg.map.band_min_m, cfg.map.band_max_m),
+            &cfg.nbv,
+        );
+        let fan = FanTemplate::new(&model, &grid).unwrap();
+        assert!(fan.fits(&grid));
+        let (nx, ny) = (grid.nx as i32, grid.ny as i32);
+        let starts = [
+            (nx / 2, ny / 2),
+            (0, 0),
+            (nx - 1, ny - 1),
+            (0, ny / 3),
+            (nx / 4, ny - 1),
+            (nx - 2, 1),
+        ];
+        let rows = model.rows.len();
+        for (cx, cy) in starts {
+            let p = grid.center(Cell::new(cx, cy));
+            let origin = Point3::new(p.x, p.y, model.mount_m);
+            let base = (cy * nx + cx) as i64;
+            for (a, &(c, s)) in model.az_dirs.iter().enumerate() {
+                for k in 0..rows {
+                    let mut walked = Vec::new();
+                    traverse_while(
+                        &grid,
+                        origin,
+                        model.ray_dir(c, s, k),
+                        model.max_range_m,
+                        |v, t_in, t_out| {
+                            walked.push((v, t_in, t_out));
+                            true
+                        },
+                    );
+                    let r = a * rows + k;
+                    let listed: Vec<(usize, f64, f64)> = fan.steps
+                        [fan.rays[r] as usize..fan.rays[r + 1] as usize]
+                        .iter()
+                        .take_while(|st| {
+                            let (x, y) = (cx + i32::from(st.dx), cy + i32::from(st.dy));
+                            (0..nx).contains(&x) && (0..ny).contains(&y)
+                        })
+                        .map(|st| ((base + i64::from(st.offset)) as usize, st.t_in, st.t_out))
+                        .collect();
+                    assert_eq!(walked.len(), listed.len(), "cell ({cx}, {cy}), ray {r}");
+                    for (w, l) in walked.iter().zip(&listed) {
+                        assert_eq!(w.0, l.0, "cell ({cx}, {cy}), ray {r}");
+                        assert!(
+                            (w.1 - l.1).abs() < 1e-9 && (w.2 - l.2).abs() < 1e-9,
+                            "{w:?} {l:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A gain read from the fan's voxel lists is the ray-by-ray gain up to rounding, from every
+    /// cell of a half-scanned room's grid (the edges' cells too).
+    #[test]
+    fn fan_gains_are_the_ray_by_ray_gains() {
+        let cfg = Config::default();
+        let (map, _) = half_scanned_room(&cfg);
+        let grid = *map.grid();
+        let occ = map.occupancy();
+        let model = GainModel::new(
+            &cfg.camera,
+            (cfg.map.band_min_m, cfg.map.band_max_m),
+            &cfg.nbv,
+        );
+        let fan = FanTemplate::new(&model, &grid).unwrap();
+        let table: Vec<f64> = (0..grid.voxels()).map(|v| attenuation(occ, v)).collect();
+        let mut positive = 0;
+        for i in (0..grid.cells()).step_by(7) {
+            let want = model.evaluate(&map, grid.center(grid.cell(i)));
+            let got = model.evaluate_fan(&grid, &fan, &table, i);
+            assert!(
+                (got.volume_m3 - want.volume_m3).abs() <= 1e-9 * want.volume_m3.max(1.0),
+                "cell {i}"
+            );
+            assert_eq!(got.yaw, want.yaw, "cell {i}");
+            positive += usize::from(want.volume_m3 > 0.01);
+        }
+        assert!(positive > 10, "only {positive} cells see unknown volume");
     }
 
     /// Volume views on a 0.5 m lattice (fewer candidates than the default, for a quick test).
