@@ -258,16 +258,19 @@ impl Setup {
     /// `r + 1`, the same `f64` values). The crossings are the same operations on the same operands,
     /// and a minimum or maximum of non-NaN values does not depend on their order (the sign of a zero
     /// is lost to the ±1 that follows), so every span is `row_cols`'s bit for bit.
-    #[inline]
+    #[inline(always)]
     fn row_spans(&self, rows: std::ops::Range<usize>, spans: &mut [Option<[usize; 2]>; TILE]) {
         let poly = &self.poly[..self.n];
         let nr = rows.len();
+        // The polygon's edges, each from a vertex to the next (the last back to the first).
+        let edges: [([f64; 2], [f64; 2]); 4] =
+            std::array::from_fn(|i| (self.poly[i], self.poly[(i + 1) % self.n]));
+        let edges = &edges[..self.n];
         // Line `j` is `rows.start + j - 1`.
         let mut cross = [[f64::INFINITY, f64::NEG_INFINITY]; TILE + 2];
         for (j, c) in cross[..nr + 2].iter_mut().enumerate() {
             let line = (rows.start + j) as f64 - 1.0;
-            for i in 0..poly.len() {
-                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+            for &(p, q) in edges {
                 if (p[1] < line) != (q[1] < line) {
                     let u = p[0] + (line - p[1]) / (q[1] - p[1]) * (q[0] - p[0]);
                     *c = [c[0].min(u), c[1].max(u)];
