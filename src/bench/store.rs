@@ -281,6 +281,56 @@ mod tests {
         }
     }
 
+    /// Rows written to `results.jsonl` and read back keep every float to the bit: a finished
+    /// bench rewrites the file from what it reads, and its summary is computed from that. Among
+    /// the values, a start yaw and a completeness that a best-effort float parser reads one ulp off.
+    #[test]
+    fn rows_read_back_keep_every_float_to_the_bit() {
+        use rand::{Rng, SeedableRng};
+        let json = r#"{"scene":"a","scene_hash":"h","planner":"greedy","seed":1,
+            "spawn":{"x":0,"y":0,"yaw":0},"termination":"complete","completeness":0.5,
+            "explored_volume_m3":1,"observable_volume_m3":10,"surface_coverage":0.5,
+            "path_length_m":3,"sim_time_s":10,"wall_time_s":1,"real_time_factor":10,
+            "collisions":0,"steps":100,"replans":1,"astar_calls":1,"timings_ms":{},
+            "version":"0","config_hash":"c","curve":[]}"#;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut values = vec![-0.9781475741430987, 0.9656233316140475];
+        values.extend((0..3000).map(|_| rng.random_range(-4.0f64..4.0)));
+        let rows: Vec<BenchRow> = values
+            .chunks(2)
+            .enumerate()
+            .map(|(seed, v)| {
+                let mut result: RunResult = serde_json::from_str(json).unwrap();
+                result.spawn.yaw = v[0];
+                result.completeness = v[v.len() - 1];
+                BenchRow {
+                    key: key(seed as u64),
+                    status: RunStatus::Ok,
+                    error: None,
+                    result: Some(result),
+                }
+            })
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(RESULTS_JSONL);
+        write_jsonl(&p, &rows).unwrap();
+        for (a, b) in rows.iter().zip(read_jsonl(&p).unwrap()) {
+            let (a, b) = (a.result.as_ref().unwrap(), b.result.as_ref().unwrap());
+            assert_eq!(
+                a.spawn.yaw.to_bits(),
+                b.spawn.yaw.to_bits(),
+                "{}",
+                a.spawn.yaw
+            );
+            assert_eq!(
+                a.completeness.to_bits(),
+                b.completeness.to_bits(),
+                "{}",
+                a.completeness
+            );
+        }
+    }
+
     #[test]
     fn truncated_last_line_is_dropped_and_repaired() {
         let dir = tempfile::tempdir().unwrap();
