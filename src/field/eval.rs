@@ -773,6 +773,12 @@ fn weighted_sums_lanes(col: &[f64], row: &[f64], ta: &[f64], tb: &[f64], st: &[f
             .zip(st.chunks_exact(4)),
     );
     for ((c, r), ((x, y), z)) in quads {
+        // Fixed-size arrays, so that the lanes carry no bounds checks and become vector operations.
+        let c: &[f64; 4] = c.try_into().expect("chunk of 4");
+        let r: &[f64; 4] = r.try_into().expect("chunk of 4");
+        let x: &[f64; 4] = x.try_into().expect("chunk of 4");
+        let y: &[f64; 4] = y.try_into().expect("chunk of 4");
+        let z: &[f64; 4] = z.try_into().expect("chunk of 4");
         for l in 0..4 {
             let w = c[l] * r[l];
             acc[0][l] += w * x[l];

@@ -94,6 +94,7 @@ impl GainModel {
                 (az.cos(), az.sin())
             })
             .collect();
+        let inv_l = 1.0 / nbv.visibility_length_m;
         GainModel {
             n_az,
             window,
@@ -103,8 +104,8 @@ impl GainModel {
             min_range_m: c.min_range_m.get(),
             max_range_m: c.max_range_m.get(),
             band_m,
-            inv_l: 1.0 / nbv.visibility_length_m,
-            ln_half_per_m: 0.5f64.ln() * (1.0 / nbv.visibility_length_m),
+            inv_l,
+            ln_half_per_m: 0.5f64.ln() * inv_l,
             ln_min_visibility: MIN_VISIBILITY.ln(),
             cover_min_visibility: nbv.cover_min_visibility,
         }
@@ -473,7 +474,8 @@ pub struct VolumeViews {
     taken: super::Count,
     /// Per floor cell, its gain as of map frame `gains_frame` (NaN: never evaluated). A gain reads
     /// only the voxels within the camera's range, so it is reused until one of them changes: each
-    /// call scores the whole lattice, and re-evaluating all of it took seconds on a large scene.
+    /// call scores the whole lattice, and re-scoring all of it took about a second on
+    /// `office_large` before the fan ([`FanTemplate`]), a few tenths since.
     gains: Vec<f64>,
     gains_frame: u32,
     /// The gain model's rays as voxel lists for the map's grid (made at the first call).
