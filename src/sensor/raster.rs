@@ -164,7 +164,7 @@ impl Setup {
     #[inline(always)]
     // `!(det.abs() < 1e-12)` as the caster writes it (a NaN passes), not `>=`.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    fn test_lanes(
+    fn test_lanes<const AVX: bool>(
         &self,
         [x, y, z]: [&[f32; TILE]; 3],
         depth: &mut [f32; TILE],
@@ -172,7 +172,7 @@ impl Setup {
         hi: usize,
     ) -> bool {
         let (e1, e2, s, q) = (self.e1, self.e2, self.s, self.q);
-        let mut changed = false;
+        let mut candidate = [f32::INFINITY; TILE];
         for k in 0..TILE {
             let (dx, dy, dz) = (x[k], y[k], z[k]);
             // d × e2 and the dot products as glam's `cross` and `dot` compute them.
@@ -184,17 +184,15 @@ impl Setup {
             let u = ((s.x * px) + (s.y * py) + (s.z * pz)) * inv;
             let v = ((dx * q.x) + (dy * q.y) + (dz * q.z)) * inv;
             let t = self.tq * inv;
-            let hit = !(det.abs() < 1e-12)
+            let accept = !(det.abs() < 1e-12)
                 & (0.0..=1.0).contains(&u)
                 & !((v < 0.0) | (u + v > 1.0))
                 & (t >= 0.0)
-                & (t < depth[k])
                 & (k >= lo)
                 & (k <= hi);
-            depth[k] = if hit { t } else { depth[k] };
-            changed |= hit;
+            candidate[k] = if accept { t } else { f32::INFINITY };
         }
-        changed
+        keep_nearer::<AVX>(&candidate, depth)
     }
 
     /// The ray test along the unit ray `d`: its distance if it hits nearer than `z`. Möller–Trumbore
@@ -765,6 +763,39 @@ fn lanes_max(v: &[f32; TILE]) -> f32 {
     m[0].max(m[2]).max(m[1].max(m[3]))
 }
 
+/// Lowers each of a tile row's `depth`s that its `candidate` is strictly nearer than; whether any
+/// was. Each lane is `c < d ? c : d`, which is exactly x86's `minps(c, d)`. Written as a select of
+/// the old depth, the compiler makes a masked store of it, which on some CPUs (AMD's) costs more
+/// than the whole ray test; with AVX the minimum is therefore the instruction itself and a plain
+/// store. Depths are never NaN, so both versions give the same bits.
+#[inline(always)]
+fn keep_nearer<const AVX: bool>(candidate: &[f32; TILE], depth: &mut [f32; TILE]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        use std::arch::x86_64::{
+            _mm256_cmp_ps, _mm256_loadu_ps, _mm256_min_ps, _mm256_movemask_ps,
+        };
+        use std::arch::x86_64::{_mm256_storeu_ps, _CMP_LT_OQ};
+        // SAFETY: `AVX` is true only in `fill_band_avx`, called where the CPU has AVX; the
+        // pointers are to arrays of eight f32, read and written unaligned.
+        return unsafe {
+            let (c, d) = (
+                _mm256_loadu_ps(candidate.as_ptr()),
+                _mm256_loadu_ps(depth.as_ptr()),
+            );
+            _mm256_storeu_ps(depth.as_mut_ptr(), _mm256_min_ps(c, d));
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(c, d)) != 0
+        };
+    }
+    let mut changed = false;
+    for (c, d) in candidate.iter().zip(depth) {
+        let hit = c < d;
+        *d = if hit { *c } else { *d };
+        changed |= hit;
+    }
+    changed
+}
+
 /// One task's share of a frame (see `MeshRaster::render_ranges`): whole tile rows from image row
 /// `r0` (a multiple of [`TILE`]).
 struct BandJob<'a> {
@@ -797,7 +828,7 @@ fn fill_band(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &mut Ban
         // SAFETY: the CPU has AVX, checked just above.
         return unsafe { fill_band_avx(list, order, stride, band) };
     }
-    fill_band_lanes(list, order, stride, band);
+    fill_band_lanes::<false>(list, order, stride, band);
 }
 
 /// [`fill_band`] compiled for AVX.
@@ -807,12 +838,17 @@ fn fill_band(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &mut Ban
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 unsafe fn fill_band_avx(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &mut BandJob) {
-    fill_band_lanes(list, order, stride, band);
+    fill_band_lanes::<true>(list, order, stride, band);
 }
 
-/// The body of [`fill_band`], inlined into each target's version.
+/// The body of [`fill_band`], inlined into each target's version (`AVX`: compiled for AVX).
 #[inline(always)]
-fn fill_band_lanes(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &mut BandJob) {
+fn fill_band_lanes<const AVX: bool>(
+    list: &[Setup],
+    order: &[(f32, u32)],
+    stride: usize,
+    band: &mut BandJob,
+) {
     let BandJob {
         r0,
         rays,
@@ -873,7 +909,7 @@ fn fill_band_lanes(list: &[Setup], order: &[(f32, u32)], stride: usize, band: &m
                         .try_into()
                         .unwrap();
                     let (l, h) = (c0.max(at) - at, c1.min(at + TILE - 1) - at);
-                    if s.test_lanes(ray, &mut *d, l, h) {
+                    if s.test_lanes::<AVX>(ray, &mut *d, l, h) {
                         row_max[k][row % TILE] = lanes_max(d);
                         changed = true;
                     }
@@ -1012,6 +1048,40 @@ mod tests {
             }
         }
         assert!(rows > 10000, "{rows}");
+    }
+
+    #[test]
+    fn keep_nearer_versions_agree_bit_for_bit() {
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx") {
+            return;
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        // Ties, zeros of both signs, the rejected lanes' +∞ and the padding's zero depths.
+        let values = [0.0, -0.0, 0.3, 1.0, 2.5, 5.0, f32::INFINITY];
+        let mut any = [0; 2];
+        for _ in 0..20_000 {
+            let pick = |rng: &mut rand_chacha::ChaCha8Rng| -> [f32; TILE] {
+                std::array::from_fn(|_| match rng.random_range(0..3) {
+                    0 => values[rng.random_range(0..values.len())],
+                    _ => rng.random_range(0.0f32..6.0),
+                })
+            };
+            let candidate = pick(&mut rng);
+            let mut depth = pick(&mut rng).map(|d| if d.is_finite() { d } else { 5.0 });
+            let (mut plain, before) = (depth, depth);
+            let changed = keep_nearer::<true>(&candidate, &mut depth);
+            let expected = keep_nearer::<false>(&candidate, &mut plain);
+            assert_eq!(changed, expected);
+            assert_eq!(depth.map(f32::to_bits), plain.map(f32::to_bits));
+            // The plain version's rule itself: a lane drops exactly where the candidate is nearer.
+            for ((c, b), p) in candidate.iter().zip(&before).zip(&plain) {
+                assert_eq!(p.to_bits(), if c < b { c } else { b }.to_bits());
+            }
+            assert_eq!(changed, candidate.iter().zip(&before).any(|(c, b)| c < b));
+            any[changed as usize] += 1;
+        }
+        assert!(any[0] > 0 && any[1] > 0, "both outcomes exercised: {any:?}");
     }
 
     #[test]
