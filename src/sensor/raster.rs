@@ -765,9 +765,9 @@ fn lanes_max(v: &[f32; TILE]) -> f32 {
 
 /// Lowers each of a tile row's `depth`s that its `candidate` is strictly nearer than; whether any
 /// was. Each lane is `c < d ? c : d`, which is exactly x86's `minps(c, d)`. Written as a select of
-/// the old depth, the compiler makes a masked store of it, which on some CPUs (AMD's) costs more
-/// than the whole ray test; with AVX the minimum is therefore the instruction itself and a plain
-/// store. Depths are never NaN, so both versions give the same bits.
+/// the old depth, the compiler makes a masked store of it, which on AMD CPUs cost about a fifth of
+/// a frame (BENCHMARKS.md, 2026-11-28); with AVX the minimum is therefore the instruction itself and
+/// a plain store. Depths are never NaN, so both versions give the same bits.
 #[inline(always)]
 fn keep_nearer<const AVX: bool>(candidate: &[f32; TILE], depth: &mut [f32; TILE]) -> bool {
     #[cfg(target_arch = "x86_64")]
