@@ -338,6 +338,7 @@ pub struct ThpConfig {
     pub kmeans_cluster_m: f64,
     pub exact_tsp_max_nodes: usize,
     pub cost_refresh_s: f64,
+    pub cost_refresh_rows_max: usize,
     pub advection: bool,
     pub advect_length_m: f64,
     pub drift_m: f64,
@@ -494,6 +495,11 @@ impl ThpConfig {
                 "config key `thp.exact_tsp_max_nodes` must lie in 1..=20 (Held–Karp needs 2^n memory), got {}",
                 self.exact_tsp_max_nodes
             )));
+        }
+        if self.cost_refresh_rows_max == 0 {
+            return Err(Error::usage(
+                "config key `thp.cost_refresh_rows_max` must be at least 1 (at 0 an old row would never be recomputed)",
+            ));
         }
         Ok(())
     }
@@ -1099,6 +1105,12 @@ mod tests {
             e.to_string(),
             "config key `field.sigma_m` must be a positive number, got 0"
         );
+        let e = Config::load(None, &["thp.cost_refresh_rows_max=0".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `thp.cost_refresh_rows_max` must be at least 1 (at 0 an old row would never be recomputed)"
+        );
+        assert_eq!(e.exit_code(), 2);
     }
 
     #[test]

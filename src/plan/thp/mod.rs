@@ -10,8 +10,11 @@
 //!    paper leaves (`thp.tour_start`, [`tour`]): Alg. 1 says "the anchor nearest the robot", which
 //!    can lie behind the robot while the rest of the tour lies ahead; `"robot"` makes the robot's own
 //!    cell the fixed start, so the first group is the one the whole tour favours. The paper's reading
-//!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs are path costs under the shared search cost rule, one Dijkstra per node
-//!    ([`Search::costs_to_targets`]) rather than pairwise A*. Exact Held–Karp up to
+//!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs
+//!    are path costs under the shared search cost rule, one Dijkstra per node
+//!    ([`Search::costs_to_targets`]) rather than pairwise A*, each row kept while its node keeps its
+//!    access cell and recomputed once `thp.cost_refresh_s` old, at most `thp.cost_refresh_rows_max`
+//!    at one solve (the paper leaves caching open). Exact Held–Karp up to
 //!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
 //! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the
 //!    centroids of the map's frontier segments (at most `map.frontier_segment_max_m`, 1 m, long). Each

@@ -178,9 +178,11 @@ impl Thp {
 
     /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
     /// ([`Search::costs_to_targets`]). A row is reused while its source cell is unchanged and younger
-    /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); a pair missing from
-    /// an old row is read from the other node's row (path costs are symmetric up to the proximity
-    /// surcharge of the end cells).
+    /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); of the rows past
+    /// that age, the `thp.cost_refresh_rows_max` oldest are recomputed and the others serve once
+    /// more, so that rows computed at one solve do not all come due at one later solve. A pair
+    /// missing from an old row is read from the other node's row (path costs are symmetric up to
+    /// the proximity surcharge of the end cells).
     pub(super) fn cost_matrix(
         &mut self,
         ctx: &mut PlanContext,
@@ -190,8 +192,11 @@ impl Thp {
         let grid = *ctx.map.grid();
         let now = ctx.time_s;
         let refresh = self.cfg.cost_refresh_s;
-        self.cost_rows
-            .retain(|source, row| now - row.0 < refresh && access.contains(source));
+        self.cost_rows.retain(|source, _| access.contains(source));
+        let computed_at = self.cost_rows.iter().map(|(&source, row)| (source, row.0));
+        for source in rows_due(computed_at, now, refresh, self.cfg.cost_refresh_rows_max) {
+            self.cost_rows.remove(&source);
+        }
         let mut m = CostMatrix::new(access.len());
         if access.len() < 2 {
             return m;
@@ -250,5 +255,55 @@ impl Thp {
             }
         }
         m
+    }
+}
+
+/// The cost rows to recompute for their age: of the rows (source cell, time computed) at least
+/// `refresh_s` old at `now`, the `max` oldest (ties by source cell, so the choice is reproducible).
+fn rows_due(
+    computed_at: impl Iterator<Item = (usize, f64)>,
+    now: f64,
+    refresh_s: f64,
+    max: usize,
+) -> Vec<usize> {
+    let mut aged: Vec<(f64, usize)> = computed_at
+        .filter(|&(_, t)| now - t >= refresh_s)
+        .map(|(source, t)| (t, source))
+        .collect();
+    aged.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    aged.into_iter()
+        .take(max)
+        .map(|(_, source)| source)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_due_are_the_oldest_aged_rows_up_to_the_limit() {
+        // Sources 10..15 computed at 0, 3, 3, 8, 12 and 1 s; at 15 s with a 10 s refresh the rows of
+        // 0, 1, 3 and 3 s are aged (the 3 s pair tied, by source), the 8 and 12 s ones are not.
+        let rows = [
+            (10, 0.0),
+            (11, 3.0),
+            (12, 3.0),
+            (13, 8.0),
+            (14, 12.0),
+            (9, 1.0),
+        ];
+        assert_eq!(rows_due(rows.into_iter(), 15.0, 10.0, 2), vec![10, 9]);
+        assert_eq!(rows_due(rows.into_iter(), 15.0, 10.0, 3), vec![10, 9, 11]);
+        assert_eq!(
+            rows_due(rows.into_iter(), 15.0, 10.0, 100),
+            vec![10, 9, 11, 12]
+        );
+        // Exactly the refresh age is due; nothing is due before.
+        assert_eq!(
+            rows_due(rows.into_iter(), 18.0, 10.0, 100),
+            vec![10, 9, 11, 12, 13]
+        );
+        assert!(rows_due(rows.into_iter(), 9.9, 10.0, 100).is_empty());
     }
 }
