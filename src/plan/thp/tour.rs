@@ -179,8 +179,8 @@ impl Thp {
     /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
     /// ([`Search::costs_to_targets`]). A row is reused while its source cell is unchanged and younger
     /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); of the rows past
-    /// that age, the `thp.cost_refresh_rows_max` oldest are recomputed and the others serve once
-    /// more, so that rows computed at one solve do not all come due at one later solve. A pair
+    /// that age, the `thp.cost_refresh_rows_max` oldest are recomputed and the others serve until
+    /// their turn, so that rows computed at one solve do not all come due at one later solve. A pair
     /// missing from an old row is read from the other node's row (path costs are symmetric up to
     /// the proximity surcharge of the end cells).
     pub(super) fn cost_matrix(
@@ -283,7 +283,7 @@ mod tests {
 
     #[test]
     fn rows_due_are_the_oldest_aged_rows_up_to_the_limit() {
-        // Sources 10..15 computed at 0, 3, 3, 8, 12 and 1 s; at 15 s with a 10 s refresh the rows of
+        // Sources 10, 11, 12, 13, 14 and 9 computed at 0, 3, 3, 8, 12 and 1 s; at 15 s with a 10 s refresh the rows of
         // 0, 1, 3 and 3 s are aged (the 3 s pair tied, by source), the 8 and 12 s ones are not.
         let rows = [
             (10, 0.0),
