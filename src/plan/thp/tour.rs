@@ -283,8 +283,9 @@ mod tests {
 
     #[test]
     fn rows_due_are_the_oldest_aged_rows_up_to_the_limit() {
-        // Sources 10, 11, 12, 13, 14 and 9 computed at 0, 3, 3, 8, 12 and 1 s; at 15 s with a 10 s refresh the rows of
-        // 0, 1, 3 and 3 s are aged (the 3 s pair tied, by source), the 8 and 12 s ones are not.
+        // Sources 10, 11, 12, 13, 14 and 9 computed at 0, 3, 3, 8, 12 and 1 s; at 15 s with a 10 s
+        // refresh the rows of 0, 1, 3 and 3 s are aged (the 3 s pair tied, by source), the 8 and
+        // 12 s ones are not.
         let rows = [
             (10, 0.0),
             (11, 3.0),
