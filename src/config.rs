@@ -325,6 +325,17 @@ pub enum TourStart {
     NearestAnchor,
 }
 
+/// Between which cells of two THP tour nodes the TSP's path costs run (see `plan::thp::tour`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TourCosts {
+    /// Between the nodes' positions (Eq. 6's dist(p_i, p_j) between anchors), each taken from its
+    /// least-cost frontier instead where it does not lie on floor the robot can reach.
+    Anchors,
+    /// Between each node's least-cost frontier from the robot (which moves with the robot).
+    Frontiers,
+}
+
 /// THP: anchors, online TSP, frontier grouping and splitting, advection (seed 000 §3.3–3.5).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -344,6 +355,7 @@ pub struct ThpConfig {
     pub drift_m: f64,
     pub finish_group_first: bool,
     pub tour_start: TourStart,
+    pub tour_costs: TourCosts,
     pub look_when_blocked: bool,
     pub volume_view_tour: bool,
     pub advection_stall_s: f64,

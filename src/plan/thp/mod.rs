@@ -11,10 +11,13 @@
 //!    can lie behind the robot while the rest of the tour lies ahead; `"robot"` makes the robot's own
 //!    cell the fixed start, so the first group is the one the whole tour favours. The paper's reading
 //!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs
-//!    are path costs under the shared search cost rule, one Dijkstra per node
+//!    are path costs under the shared search cost rule between the nodes' anchors (Eq. 6's
+//!    dist(p_i, p_j); `thp.tour_costs`), an anchor off the reachable floor replaced by its group's
+//!    least-cost frontier. They come from one Dijkstra per node
 //!    ([`Search::costs_to_targets`]) rather than pairwise A*, each row kept while its node keeps its
-//!    access cell and recomputed once `thp.cost_refresh_s` old, at most `thp.cost_refresh_rows_max`
-//!    at one solve (the paper leaves caching open). Exact Held–Karp up to
+//!    access cell and searched again once `thp.cost_refresh_s` old, at most
+//!    `thp.cost_refresh_rows_max` at one solve and only for the pairs no younger row holds (the
+//!    paper leaves caching open; [`tour::CostRows`]). Exact Held–Karp up to
 //!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
 //! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the
 //!    centroids of the map's frontier segments (at most `map.frontier_segment_max_m`, 1 m, long). Each
@@ -94,7 +97,7 @@ use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
 use super::view_gain::{VolumeViewParams, VolumeViews};
 use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
-use crate::config::{Config, FieldConfig, Grouping, ThpConfig, TourStart};
+use crate::config::{Config, FieldConfig, Grouping, ThpConfig, TourCosts, TourStart};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
 use crate::map::Map;
@@ -148,8 +151,8 @@ pub struct Thp {
     /// Buffers of the planning step's cell costs and the robot's distance field, kept between steps.
     step_costs: plan::StepCosts,
     flood: DistanceField,
-    /// Cached cost rows: source cell → (time computed, target cell → path cost).
-    cost_rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
+    /// Cached rows of TSP path costs between access cells.
+    cost_rows: tour::CostRows,
     /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
     row_searches: Vec<Search>,
     stats: ThpStats,
@@ -238,7 +241,7 @@ impl Thp {
             tsp_ms: None,
             step_costs: super::StepCosts::default(),
             flood: DistanceField::default(),
-            cost_rows: BTreeMap::new(),
+            cost_rows: tour::CostRows::default(),
             row_searches: Vec::new(),
             stats: ThpStats::default(),
             ledger: PathLedger::default(),

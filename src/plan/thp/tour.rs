@@ -96,14 +96,14 @@ impl Thp {
         tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes).order[1..].to_vec()
     }
 
-    /// Solves the fixed-start open TSP over `nodes` (Eq. 6); each node is entered at its least-cost
-    /// member. Sets the tour (node keys in order). The start, by `thp.tour_start` (and
-    /// `thp.finish_group_first`):
-    /// - `robot`: the robot's cell is an extra node, the fixed start, with the robot's
-    ///   path costs to each access cell; the first group is the one the cheapest whole tour begins
-    ///   with.
-    /// - `nearest_anchor` (default): the node whose anchor is nearest the robot by path cost (Alg. 1, "start at
-    ///   the anchor nearest the robot"), even when it lies behind the robot and the rest ahead.
+    /// Solves the fixed-start open TSP over `nodes` (Eq. 6) with path costs between the nodes'
+    /// access cells (`thp.tour_costs`: their anchors, or their least-cost members). Sets the tour
+    /// (node keys in order). The start, by `thp.tour_start` (and `thp.finish_group_first`):
+    /// - `robot`: the robot's cell is an extra node, the fixed start, with the robot's path costs
+    ///   to each access cell; the first group is the one the cheapest whole tour begins with.
+    /// - `nearest_anchor` (default): the node whose anchor is nearest the robot by path cost
+    ///   (Alg. 1, "start at the anchor nearest the robot"), even when it lies behind the robot and
+    ///   the rest ahead.
     pub(super) fn solve_tour(
         &mut self,
         ctx: &mut PlanContext,
@@ -113,18 +113,32 @@ impl Thp {
         fronts: &[Frontier],
     ) {
         let t = Instant::now();
+        // Where each node's row of path costs starts (`thp.tour_costs`): Eq. 6 takes dist between
+        // anchors; an anchor that is a frontier's centroid or a k-means centre may lie off the
+        // known floor, and then its least-cost frontier stands in, as it does for every node with
+        // `frontiers`.
+        let grid = *ctx.map.grid();
         let access: Vec<usize> = nodes
             .iter()
             .map(|n| {
-                n.members
-                    .iter()
-                    .map(|&m| &fronts[m])
-                    .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
-                    .expect("nodes have members")
-                    .aim
+                let anchor_cell = grid
+                    .cell_of(n.pos)
+                    .map(|c| grid.index(c))
+                    .filter(|&c| ctx.map.is_traversable(c) && df.cost_to(c).is_some());
+                let nearest_member = || {
+                    n.members
+                        .iter()
+                        .map(|&m| &fronts[m])
+                        .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
+                        .expect("nodes have members")
+                        .aim
+                };
+                match self.cfg.tour_costs {
+                    TourCosts::Anchors => anchor_cell.unwrap_or_else(nearest_member),
+                    TourCosts::Frontiers => nearest_member(),
+                }
             })
             .collect();
-        let grid = *ctx.map.grid();
         // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
         // while Alg. 2 scans a group until it is empty. Read together, a re-solve that new anchors
         // trigger in the middle of a group may keep that group as the start
@@ -156,7 +170,14 @@ impl Thp {
         };
         // How much nearer another group's entry was than the first group's (a cause of THP's
         // longer legs traced on real plans: an anchor near the robot whose frontiers are not).
-        let entry = |k: usize| df.cost_to(access[k]).map_or(f64::INFINITY, f64::from);
+        // A group's entry is its least-cost frontier, whichever cell its costs start from.
+        let entry = |k: usize| {
+            nodes[k]
+                .members
+                .iter()
+                .map(|&m| f64::from(fronts[m].cost))
+                .fold(f64::INFINITY, f64::min)
+        };
         let nearest = (0..nodes.len()).map(entry).fold(f64::INFINITY, f64::min);
         if let Some(&first) = order.first() {
             let extra = entry(first) - nearest;
@@ -177,12 +198,8 @@ impl Thp {
     }
 
     /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
-    /// ([`Search::costs_to_targets`]). A row is reused while its source cell is unchanged and younger
-    /// than `thp.cost_refresh_s` (the map mostly grows, so costs change slowly); of the rows past
-    /// that age, the `thp.cost_refresh_rows_max` oldest are recomputed and the others serve until
-    /// their turn, so that rows computed at one solve do not all come due at one later solve. A pair
-    /// missing from an old row is read from the other node's row (path costs are symmetric up to
-    /// the proximity surcharge of the end cells).
+    /// ([`Search::costs_to_targets`]), cached in [`CostRows`] (which says when a row is searched
+    /// again and which pairs it then searches for).
     pub(super) fn cost_matrix(
         &mut self,
         ctx: &mut PlanContext,
@@ -191,70 +208,145 @@ impl Thp {
     ) -> CostMatrix {
         let grid = *ctx.map.grid();
         let now = ctx.time_s;
-        let refresh = self.cfg.cost_refresh_s;
-        self.cost_rows.retain(|source, _| access.contains(source));
-        let computed_at = self.cost_rows.iter().map(|(&source, row)| (source, row.0));
-        for source in rows_due(computed_at, now, refresh, self.cfg.cost_refresh_rows_max) {
-            self.cost_rows.remove(&source);
-        }
-        let mut m = CostMatrix::new(access.len());
+        self.cost_rows.keep_sources(access);
         if access.len() < 2 {
-            return m;
+            return CostMatrix::new(access.len());
         }
-        let mut missing: Vec<usize> = Vec::new();
-        for &source in access {
-            if !self.cost_rows.contains_key(&source) && !missing.contains(&source) {
-                missing.push(source);
-            }
-        }
-        // The missing rows are independent Dijkstras: spread over the thread pool, each worker with
-        // its own search workspace (the result does not depend on the thread count).
-        let workers = missing.len().min(rayon::current_num_threads()).max(1);
+        let jobs = self.cost_rows.searches(
+            access,
+            now,
+            self.cfg.cost_refresh_s,
+            self.cfg.cost_refresh_rows_max,
+        );
+        // The searches are independent Dijkstras: spread over the thread pool, each worker with its
+        // own search workspace (the result does not depend on the thread count).
+        let workers = jobs.len().min(rayon::current_num_threads()).max(1);
         while self.row_searches.len() < workers {
             self.row_searches.push(Search::new(&grid));
         }
-        let rows: Vec<(usize, Vec<Option<f32>>)> = self.row_searches[..workers]
+        let rows: Vec<(usize, BTreeMap<usize, f64>)> = self.row_searches[..workers]
             .par_iter_mut()
             .enumerate()
             .flat_map_iter(|(w, search)| {
-                missing
-                    .iter()
+                jobs.iter()
                     .skip(w)
                     .step_by(workers)
-                    .map(|&source| {
-                        let row = search.costs_to_targets(
+                    .map(|(source, targets)| {
+                        let found = search.costs_to_targets(
                             &grid,
                             |c| costs.get(c),
-                            source,
-                            access,
+                            *source,
+                            targets,
                             f32::INFINITY,
                         );
-                        (source, row)
+                        let row = targets
+                            .iter()
+                            .zip(found)
+                            .map(|(&t, c)| (t, c.map_or(f64::INFINITY, f64::from)))
+                            .collect();
+                        (*source, row)
                     })
                     .collect::<Vec<_>>()
             })
             .collect();
-        for (source, row_costs) in rows {
-            let row = access
-                .iter()
-                .zip(row_costs)
-                .map(|(&t, c)| (t, c.map_or(f64::INFINITY, f64::from)))
-                .collect();
-            self.cost_rows.insert(source, (now, row));
-            self.stats.cost_rows.add(1.0);
+        for (source, row) in rows {
+            if !row.is_empty() {
+                self.stats.cost_rows.add(1.0);
+            }
+            self.cost_rows.insert(source, now, row);
         }
-        for (i, a) in access.iter().enumerate() {
-            for (j, b) in access.iter().enumerate() {
-                let c = self.cost_rows[a]
-                    .1
-                    .get(b)
-                    .or_else(|| self.cost_rows[b].1.get(a))
-                    .copied()
-                    .expect("the newer of two rows holds the pair");
-                m.set(i, j, c);
+        self.cost_rows.matrix(access)
+    }
+}
+
+/// Cached rows of TSP path costs: per source cell, when its Dijkstra ran and what it found.
+///
+/// A row is reused while its source cell stays an access cell and is younger than
+/// `thp.cost_refresh_s` (the map mostly grows, so costs change slowly). Of the rows past that age,
+/// the `thp.cost_refresh_rows_max` oldest are searched again and the others serve until their turn,
+/// so that rows computed at one solve do not all come due at one later solve. A pair is read from
+/// the newer of its two rows (path costs are symmetric up to the proximity surcharge of the end
+/// cells), so a row searched again for its age looks only for the cells whose pair no younger row
+/// holds: usually a few, where a whole row would flood to the farthest node.
+#[derive(Clone, Debug, Default)]
+pub(super) struct CostRows {
+    /// Source cell → (time computed, target cell → path cost).
+    rows: BTreeMap<usize, (f64, BTreeMap<usize, f64>)>,
+}
+
+impl CostRows {
+    /// Drops the rows whose source is no longer one of `access`.
+    pub(super) fn keep_sources(&mut self, access: &[usize]) {
+        self.rows.retain(|source, _| access.contains(source));
+    }
+
+    /// Whether `cell` has a row.
+    pub(super) fn has(&self, cell: usize) -> bool {
+        self.rows.contains_key(&cell)
+    }
+
+    /// The searches a matrix over `access` needs at `now`, as (source, targets): every cell
+    /// without a row searches for all of `access`; a row due for its age ([`rows_due`]) searches
+    /// for the cells whose pair with it only aged rows hold and no earlier search here covers.
+    pub(super) fn searches(
+        &self,
+        access: &[usize],
+        now: f64,
+        refresh_s: f64,
+        rows_max: usize,
+    ) -> Vec<(usize, Vec<usize>)> {
+        let mut jobs: Vec<(usize, Vec<usize>)> = Vec::new();
+        for &source in access {
+            if !self.has(source) && jobs.iter().all(|j| j.0 != source) {
+                jobs.push((source, access.to_vec()));
             }
         }
-        m
+        let computed_at = self.rows.iter().map(|(&source, row)| (source, row.0));
+        for source in rows_due(computed_at, now, refresh_s, rows_max) {
+            // The pair with `t` is stale unless `t`'s row is young and holds it (or `t` is searched
+            // in full now).
+            let stale = |t: usize| {
+                self.rows
+                    .get(&t)
+                    .is_some_and(|(at, row)| now - at >= refresh_s || !row.contains_key(&source))
+            };
+            let targets = access
+                .iter()
+                .copied()
+                .filter(|&t| t != source && jobs.iter().all(|j| j.0 != t) && stale(t))
+                .collect();
+            jobs.push((source, targets));
+        }
+        jobs
+    }
+
+    /// Stores what a search from `source` found at `now`, replacing its row.
+    pub(super) fn insert(&mut self, source: usize, now: f64, found: BTreeMap<usize, f64>) {
+        self.rows.insert(source, (now, found));
+    }
+
+    /// The path costs between the cells of `access`, each pair from the newer row that holds it
+    /// (the row of the first cell when both are as new). Every cell must have a row, and the rows
+    /// must come from [`CostRows::searches`] over the same cells, which covers every pair.
+    pub(super) fn matrix(&self, access: &[usize]) -> CostMatrix {
+        CostMatrix::from_fn(access.len(), |i, j| {
+            let (a, b) = (access[i], access[j]);
+            if a == b {
+                return 0.0;
+            }
+            let (row_a, row_b) = (&self.rows[&a], &self.rows[&b]);
+            match (row_a.1.get(&b), row_b.1.get(&a)) {
+                (Some(&c), Some(&d)) => {
+                    if row_b.0 > row_a.0 {
+                        d
+                    } else {
+                        c
+                    }
+                }
+                (Some(&c), None) | (None, Some(&c)) => c,
+                (None, None) => unreachable!("the searches cover every pair"),
+            }
+        })
     }
 }
 
@@ -280,6 +372,82 @@ fn rows_due(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn row(pairs: &[(usize, f64)]) -> BTreeMap<usize, f64> {
+        pairs.iter().copied().collect()
+    }
+
+    #[test]
+    fn each_pair_comes_from_the_newer_row_that_holds_it() {
+        let mut rows = CostRows::default();
+        rows.insert(1, 0.0, row(&[(1, 0.0), (2, 5.0), (3, 7.0)]));
+        rows.insert(2, 5.0, row(&[(1, 4.0), (3, 6.0)]));
+        rows.insert(3, 5.0, row(&[(1, 7.5), (2, 6.5)]));
+        let m = rows.matrix(&[1, 2, 3]);
+        // 1–2 and 1–3: rows 2 and 3 are newer than row 1, both ways.
+        assert_eq!((m.get(0, 1), m.get(1, 0)), (4.0, 4.0));
+        assert_eq!((m.get(0, 2), m.get(2, 0)), (7.5, 7.5));
+        // 2–3: rows as new as each other; each way reads its own first cell's row.
+        assert_eq!((m.get(1, 2), m.get(2, 1)), (6.0, 6.5));
+        assert_eq!((m.get(0, 0), m.get(1, 1)), (0.0, 0.0));
+    }
+
+    #[test]
+    fn an_aged_row_searches_only_for_the_pairs_no_young_row_holds() {
+        let mut rows = CostRows::default();
+        rows.insert(10, 0.0, row(&[(10, 0.0), (11, 1.0), (12, 2.0)]));
+        rows.insert(11, 8.0, row(&[(10, 1.0), (11, 0.0), (12, 1.0)]));
+        rows.insert(12, 1.0, row(&[(10, 2.0), (11, 1.0), (12, 0.0)]));
+        // At 12 s (10 s refresh) rows 10 and 12 are aged and 10 is the oldest. Its pair with 11 is
+        // held by 11's young row and its pair with 13 by 13's new row; only 12 is searched for.
+        let jobs = rows.searches(&[10, 11, 12, 13], 12.0, 10.0, 1);
+        assert_eq!(jobs, vec![(13, vec![10, 11, 12, 13]), (10, vec![12])]);
+        // With room for both aged rows, the pair is searched once, by the older.
+        let jobs = rows.searches(&[10, 11, 12], 12.0, 10.0, 2);
+        assert_eq!(jobs, vec![(10, vec![12]), (12, vec![])]);
+        // A young row that lacks the pair (made before the other cell had a row) does not cover it.
+        rows.insert(11, 8.0, row(&[(11, 0.0), (12, 1.0)]));
+        let jobs = rows.searches(&[10, 11, 12], 12.0, 10.0, 1);
+        assert_eq!(jobs, vec![(10, vec![11, 12])]);
+    }
+
+    #[test]
+    fn cached_rows_give_every_pair_as_a_full_search_would() {
+        // Access sets come and go over 200 solves; with costs that do not change, the matrix read
+        // from the cache must equal the costs themselves, whatever mix of new, young, aged and
+        // partly searched rows serves it.
+        let cost = |a: usize, b: usize| {
+            if a == b {
+                0.0
+            } else {
+                (a.abs_diff(b) * 3 + (a + b) % 7) as f64
+            }
+        };
+        for rows_max in [1, 2, 100] {
+            let mut rng = ChaCha8Rng::seed_from_u64(rows_max as u64);
+            let mut rows = CostRows::default();
+            let mut now = 0.0;
+            for _ in 0..200 {
+                now += rng.random_range(0.0..4.0);
+                let n = rng.random_range(2..9);
+                let mut access: Vec<usize> = (0..n).map(|_| rng.random_range(0..20)).collect();
+                access.dedup();
+                rows.keep_sources(&access);
+                for (source, targets) in rows.searches(&access, now, 10.0, rows_max) {
+                    let found = targets.iter().map(|&t| (t, cost(source, t))).collect();
+                    rows.insert(source, now, found);
+                }
+                let m = rows.matrix(&access);
+                for (i, &a) in access.iter().enumerate() {
+                    for (j, &b) in access.iter().enumerate() {
+                        assert_eq!(m.get(i, j), cost(a, b), "{a} to {b} at {now} s");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn rows_due_are_the_oldest_aged_rows_up_to_the_limit() {
