@@ -275,13 +275,7 @@ impl Thp {
             .iter()
             .find(|n| n.key == first)
             .expect("tour covers the nodes");
-        let f = node
-            .members
-            .iter()
-            .map(|&m| &fronts[m])
-            .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
-            .expect("nodes have members")
-            .clone();
+        let f = node.nearest_member(&fronts).clone();
         // A frontier in the blind zone around the robot is looked at before the robot drives away
         // from it (`search.blind_zone_look_first_m`, shared with GREEDY).
         if let Some(n) = &near {

@@ -62,6 +62,18 @@ pub(super) struct Node {
     pub(super) members: Vec<usize>,
 }
 
+impl Node {
+    /// The member the robot reaches at least path cost (ties by aim cell): where the group is
+    /// entered.
+    pub(super) fn nearest_member<'a>(&self, fronts: &'a [Frontier]) -> &'a Frontier {
+        self.members
+            .iter()
+            .map(|&m| &fronts[m])
+            .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
+            .expect("nodes have members")
+    }
+}
+
 /// Lloyd iterations of the k-means grouping.
 pub(super) const KMEANS_ITERATIONS: usize = 20;
 

@@ -120,23 +120,13 @@ impl Thp {
         let grid = *ctx.map.grid();
         let access: Vec<usize> = nodes
             .iter()
-            .map(|n| {
-                let anchor_cell = grid
+            .map(|n| match self.cfg.tour_costs {
+                TourCosts::Anchors => grid
                     .cell_of(n.pos)
                     .map(|c| grid.index(c))
-                    .filter(|&c| ctx.map.is_traversable(c) && df.cost_to(c).is_some());
-                let nearest_member = || {
-                    n.members
-                        .iter()
-                        .map(|&m| &fronts[m])
-                        .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.aim.cmp(&b.aim)))
-                        .expect("nodes have members")
-                        .aim
-                };
-                match self.cfg.tour_costs {
-                    TourCosts::Anchors => anchor_cell.unwrap_or_else(nearest_member),
-                    TourCosts::Frontiers => nearest_member(),
-                }
+                    .filter(|&c| ctx.map.is_traversable(c) && df.cost_to(c).is_some())
+                    .unwrap_or_else(|| n.nearest_member(fronts).aim),
+                TourCosts::Frontiers => n.nearest_member(fronts).aim,
             })
             .collect();
         // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
@@ -171,13 +161,7 @@ impl Thp {
         // How much nearer another group's entry was than the first group's (a cause of THP's
         // longer legs traced on real plans: an anchor near the robot whose frontiers are not).
         // A group's entry is its least-cost frontier, whichever cell its costs start from.
-        let entry = |k: usize| {
-            nodes[k]
-                .members
-                .iter()
-                .map(|&m| f64::from(fronts[m].cost))
-                .fold(f64::INFINITY, f64::min)
-        };
+        let entry = |k: usize| f64::from(nodes[k].nearest_member(fronts).cost);
         let nearest = (0..nodes.len()).map(entry).fold(f64::INFINITY, f64::min);
         if let Some(&first) = order.first() {
             let extra = entry(first) - nearest;
@@ -280,11 +264,6 @@ impl CostRows {
         self.rows.retain(|source, _| access.contains(source));
     }
 
-    /// Whether `cell` has a row.
-    pub(super) fn has(&self, cell: usize) -> bool {
-        self.rows.contains_key(&cell)
-    }
-
     /// The searches a matrix over `access` needs at `now`, as (source, targets): every cell
     /// without a row searches for all of `access`; a row due for its age ([`rows_due`]) searches
     /// for the cells whose pair with it only aged rows hold and no earlier search here covers.
@@ -297,7 +276,7 @@ impl CostRows {
     ) -> Vec<(usize, Vec<usize>)> {
         let mut jobs: Vec<(usize, Vec<usize>)> = Vec::new();
         for &source in access {
-            if !self.has(source) && jobs.iter().all(|j| j.0 != source) {
+            if !self.rows.contains_key(&source) && jobs.iter().all(|j| j.0 != source) {
                 jobs.push((source, access.to_vec()));
             }
         }
