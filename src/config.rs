@@ -12,6 +12,10 @@ use std::path::Path;
 /// The default config, with a comment on every key.
 pub const DEFAULT_TOML: &str = include_str!("../configs/default.toml");
 
+/// The `published` profile: the value that switches off each key of `[additions]`, and nothing
+/// else.
+pub const PUBLISHED_TOML: &str = include_str!("../configs/published.toml");
+
 /// A finite number above zero: a length, duration or rate that must not vanish (the unit is in the
 /// key's name). Parsed, not validated afterwards: a config that holds one has been checked, and the
 /// error names the dotted key (`config key `camera.max_range_m` must be a positive number, got -1`).
@@ -110,6 +114,7 @@ impl std::fmt::Display for NonNegative {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
+    pub profile: Profile,
     pub seed: u64,
     pub sim: SimConfig,
     pub scene: SceneConfig,
@@ -119,13 +124,62 @@ pub struct Config {
     pub motion: MotionConfig,
     pub search: SearchConfig,
     pub greedy: GreedyConfig,
-    pub volume_views: VolumeViewsConfig,
     pub field: FieldConfig,
     pub thp: ThpConfig,
     pub tensor: TensorConfig,
     pub nbv: NbvConfig,
+    pub additions: Additions,
     pub log: LogConfig,
     pub metrics: MetricsConfig,
+}
+
+/// Which set of rules a run follows: a name for a set of config values, never a second code path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Profile {
+    /// Each planner with tensorscout's additions (`[additions]`) as `configs/default.toml` sets them.
+    Tensorscout,
+    /// Each planner as its paper describes it: every key of `[additions]` switched off
+    /// (`configs/published.toml`).
+    Published,
+}
+
+impl Profile {
+    /// The name used on the command line, in results and in bench labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Profile::Tensorscout => "tensorscout",
+            Profile::Published => "published",
+        }
+    }
+}
+
+/// The rules no paper has: tensorscout's additions to the frontier planners, each a key here and
+/// nowhere else, each with the value that switches it off (`configs/published.toml`, which the
+/// `published` profile applies). See `configs/default.toml` for what each does and why.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Additions {
+    pub look_from_on_top: bool,
+    pub viewpoint_looks: u32,
+    pub viewpoint_away_m: NonNegative,
+    pub exact_arrival: bool,
+    pub approach_attempts: u32,
+    pub unreached_give_up_m: NonNegative,
+    pub blind_zone_step_back: bool,
+    pub blind_zone_look_first_m: NonNegative,
+    pub distant_views: bool,
+    pub volume_views: bool,
+    pub volume_view_gain_cutoff_m3: NonNegative,
+    pub volume_view_spacing_m: Positive,
+    pub volume_view_tour: bool,
+    pub reopen_max: u32,
+    pub escape_tries: u32,
+    pub escape_clearance_m: NonNegative,
+    pub way_out_m: NonNegative,
+    pub look_when_blocked: bool,
+    pub advection_stall_s: NonNegative,
+    pub nbv_frontier_views: bool,
 }
 
 /// How the ground truth of what can be observed is sampled (see `sim::observable`).
@@ -247,9 +301,6 @@ pub struct SearchConfig {
     pub unknown_is_free: bool,
     pub near_unknown_radius_m: f64,
     pub proximity_cost: f64,
-    /// A frontier in the camera's blind zone around the robot is looked at before a goal farther
-    /// than this by path cost (see `plan::frontier_visit::blind_zone_first`), metres.
-    pub blind_zone_look_first_m: NonNegative,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -257,15 +308,6 @@ pub struct SearchConfig {
 pub struct GreedyConfig {
     pub look_around_on_arrival: bool,
     pub view_distance_m: NonNegative,
-}
-
-/// Volume views before `complete`, taken by GREEDY and THP (see `plan::view_gain::VolumeViews`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VolumeViewsConfig {
-    pub enabled: bool,
-    pub gain_cutoff_m3: NonNegative,
-    pub spacing_m: Positive,
 }
 
 /// The tensor field (THP Eq. 11, TENSOR §4 and §6); see `src/field/`.
@@ -356,9 +398,6 @@ pub struct ThpConfig {
     pub finish_group_first: bool,
     pub tour_start: TourStart,
     pub tour_costs: TourCosts,
-    pub look_when_blocked: bool,
-    pub volume_view_tour: bool,
-    pub advection_stall_s: f64,
     pub view_distance_m: f64,
 }
 
@@ -500,7 +539,6 @@ impl ThpConfig {
             positive(key, v)?;
         }
         non_negative("thp.view_distance_m", self.view_distance_m)?;
-        non_negative("thp.advection_stall_s", self.advection_stall_s)?;
         within("thp.field_period_s", self.field_period_s, 0.01, 1e6)?;
         if !(1..=20).contains(&self.exact_tsp_max_nodes) {
             return Err(Error::usage(format!(
@@ -607,6 +645,60 @@ fn default_tree() -> toml::Table {
         .expect("configs/default.toml is valid TOML")
 }
 
+/// The defaults with `configs/published.toml` over them (`profile = "published"` included).
+fn published_tree() -> toml::Table {
+    let mut tree = default_tree();
+    let published = PUBLISHED_TOML
+        .parse::<toml::Table>()
+        .expect("configs/published.toml is valid TOML");
+    merge(&mut tree, published, "").expect("configs/published.toml sets only known keys");
+    tree
+}
+
+/// The whole config of `profile` as TOML with a comment on every key, as `config default
+/// --profile` prints it: `configs/default.toml` with the profile's values in place of the
+/// defaults.
+pub fn profile_toml(profile: Profile) -> String {
+    if profile == Profile::Tensorscout {
+        return DEFAULT_TOML.to_string();
+    }
+    let values = PUBLISHED_TOML
+        .parse::<toml::Table>()
+        .expect("configs/published.toml is valid TOML");
+    let mut section: Option<&toml::Table> = Some(&values);
+    let mut out = String::with_capacity(DEFAULT_TOML.len());
+    for line in DEFAULT_TOML.lines() {
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix('[').and_then(|n| n.strip_suffix(']')) {
+            section = values.get(name).and_then(toml::Value::as_table);
+        } else if let Some((key, _)) = t.split_once('=').filter(|_| !t.starts_with('#')) {
+            if let Some(v) = section.and_then(|s| s.get(key.trim())) {
+                out.push_str(&format!("{} = {v}\n", key.trim()));
+                continue;
+            }
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
+}
+
+/// A user's TOML config file: a regular file of at most 16 MiB; text that is not UTF-8 (a binary
+/// file given by mistake) is a usage error like any other unparsable config.
+fn read_user_file(path: &Path) -> Result<toml::Table> {
+    let bytes = crate::util::read_regular_file(path, 16 << 20)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        Error::usage(format!(
+            "{}: not a TOML config (not UTF-8 text at byte {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    text.parse().map_err(|e: toml::de::Error| {
+        Error::usage(format!("{}: {}", path.display(), one_line(&e.to_string())))
+    })
+}
+
 impl Config {
     /// Builds a config from the defaults, an optional TOML file, and `key=value` overrides, in that
     /// order, then validates it. A bad key or value is a usage error naming the dotted key.
@@ -620,30 +712,39 @@ impl Config {
     /// assert!(e.to_string().contains("map.voxel_m"));
     /// ```
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
-        let mut tree = default_tree();
-        if let Some(path) = file {
-            // A regular file of at most 16 MiB; text that is not UTF-8 (a binary file given by
-            // mistake) is a usage error like any other unparsable config.
-            let bytes = crate::util::read_regular_file(path, 16 << 20)?;
-            let text = String::from_utf8(bytes).map_err(|e| {
-                Error::usage(format!(
-                    "{}: not a TOML config (not UTF-8 text at byte {})",
-                    path.display(),
-                    e.utf8_error().valid_up_to()
-                ))
-            })?;
-            let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-                Error::usage(format!("{}: {}", path.display(), one_line(&e.to_string())))
-            })?;
-            merge(&mut tree, user, "")
-                .map_err(|e| Error::usage(format!("{}: {e}", path.display())))?;
-        }
-        for item in overrides {
-            apply_override(&mut tree, item)?;
+        let user = match file {
+            Some(path) => Some(read_user_file(path)?),
+            None => None,
+        };
+        // The file and the overrides set the profile like any key; its values go under them, so
+        // that a key set explicitly wins over the profile's.
+        let resolve = |mut tree: toml::Table| -> Result<toml::Table> {
+            if let (Some(path), Some(user)) = (file, &user) {
+                merge(&mut tree, user.clone(), "")
+                    .map_err(|e| Error::usage(format!("{}: {e}", path.display())))?;
+            }
+            for item in overrides {
+                apply_override(&mut tree, item)?;
+            }
+            Ok(tree)
+        };
+        let mut tree = resolve(default_tree())?;
+        if tree.get("profile").and_then(toml::Value::as_str) == Some(Profile::Published.name()) {
+            tree = resolve(published_tree())?;
         }
         let config = Config::from_value(tree)?;
         config.validate()?;
         Ok(config)
+    }
+
+    /// The defaults under `profile`, as `config default --profile` prints them.
+    pub fn of_profile(profile: Profile) -> Config {
+        let tree = match profile {
+            Profile::Tensorscout => default_tree(),
+            Profile::Published => published_tree(),
+        };
+        // Both embedded files are checked by unit tests, so this cannot fail in a released binary.
+        Config::from_value(tree).expect("the embedded profiles are valid configs")
     }
 
     fn from_value(tree: toml::Table) -> Result<Config> {
@@ -684,13 +785,13 @@ impl Config {
         self.camera.validate()?;
         self.robot.validate(self.sim.dt_s)?;
         self.greedy.validate()?;
-        self.volume_views.validate()?;
         self.search.validate()?;
         self.motion.validate()?;
         self.field.validate()?;
         self.thp.validate()?;
         self.tensor.validate()?;
         self.nbv.validate()?;
+        self.additions.validate()?;
         Ok(())
     }
 }
@@ -818,9 +919,35 @@ impl GreedyConfig {
     }
 }
 
-impl VolumeViewsConfig {
-    /// Both numbers are newtypes that check themselves: nothing is left to check.
+impl Additions {
+    /// Counts bounded by what is meaningful; the lengths are newtypes that check themselves.
     fn validate(&self) -> Result<()> {
+        count_within(
+            "additions.viewpoint_looks",
+            u64::from(self.viewpoint_looks),
+            0,
+            255,
+        )?;
+        count_within(
+            "additions.approach_attempts",
+            u64::from(self.approach_attempts),
+            1,
+            1000,
+        )?;
+        count_within("additions.reopen_max", u64::from(self.reopen_max), 0, 255)?;
+        count_within(
+            "additions.escape_tries",
+            u64::from(self.escape_tries),
+            0,
+            1000,
+        )?;
+        within("additions.way_out_m", self.way_out_m.get(), 0.0, 100.0)?;
+        within(
+            "additions.unreached_give_up_m",
+            self.unreached_give_up_m.get(),
+            0.0,
+            100.0,
+        )?;
         Ok(())
     }
 }
@@ -992,6 +1119,77 @@ fn apply_override(tree: &mut toml::Table, item: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_published_profile_switches_off_every_addition_and_nothing_else() {
+        let published: toml::Table = PUBLISHED_TOML.parse().unwrap();
+        let additions = default_tree()["additions"].as_table().unwrap().clone();
+        let off = published["additions"].as_table().unwrap();
+        // Only the profile's own name and `[additions]` keys.
+        let top: Vec<&str> = published.keys().map(String::as_str).collect();
+        assert_eq!(top, ["additions", "profile"]);
+        // Every switch of `[additions]` is set; the keys left out are the parameters of a switch
+        // ("Used with ..." in their comment), which the switch being off makes moot.
+        let text = DEFAULT_TOML.split("[additions]").nth(1).unwrap();
+        let text = text.split("\n[").next().unwrap();
+        let mut comment = String::new();
+        for line in text.lines() {
+            if let Some(c) = line.strip_prefix('#') {
+                comment.push_str(c);
+            } else if let Some((key, _)) = line.split_once('=') {
+                let key = key.trim();
+                assert!(additions.contains_key(key));
+                assert!(
+                    comment.contains("Not in any paper")
+                        || comment.contains("Used with")
+                        || comment.contains("both profiles"),
+                    "{key}: {comment}"
+                );
+                let is_switch = comment.contains("Not in any paper");
+                assert_eq!(off.contains_key(key), is_switch, "{key}");
+                if is_switch {
+                    // The comment names the value the profile sets.
+                    let want = format!("published: {}", off[key]);
+                    assert!(comment.contains(&want), "{key}: comment lacks `{want}`");
+                    assert_ne!(off[key], additions[key], "{key} is already off by default");
+                }
+                comment.clear();
+            }
+        }
+        for key in off.keys() {
+            assert!(additions.contains_key(key), "{key}");
+        }
+    }
+
+    #[test]
+    fn a_profile_is_a_set_of_values_and_explicit_keys_win() {
+        let published = Config::load(None, &["profile=published".to_string()]).unwrap();
+        assert_eq!(published, Config::of_profile(Profile::Published));
+        assert_eq!(published.profile, Profile::Published);
+        assert!(!published.additions.volume_views && published.additions.reopen_max == 0);
+        // Apart from the profile's name and `[additions]`, the two profiles agree.
+        let mut same = published.clone();
+        same.profile = Profile::Tensorscout;
+        same.additions = Config::default().additions;
+        assert_eq!(same, Config::default());
+        // A key set explicitly wins over the profile's value, in either order.
+        for set in [
+            ["profile=published", "additions.volume_views=true"],
+            ["additions.volume_views=true", "profile=published"],
+        ] {
+            let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+            let cfg = Config::load(None, &set).unwrap();
+            assert!(cfg.additions.volume_views && !cfg.additions.distant_views);
+        }
+        // The printed config of a profile is that profile.
+        for p in [Profile::Tensorscout, Profile::Published] {
+            let tree: toml::Table = profile_toml(p).parse().unwrap();
+            assert_eq!(Config::from_value(tree).unwrap(), Config::of_profile(p));
+        }
+        let e = Config::load(None, &["profile=paper".to_string()]).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().contains("`profile`"), "{e}");
+    }
 
     #[test]
     fn default_toml_parses_and_validates() {

@@ -20,7 +20,7 @@ use tensorscout::plan::PlannerKind;
 use tensorscout::Config;
 
 /// Counters added to `planner_stats` since the results were recorded.
-const STATS_ADDED: &[&str] = &[];
+const STATS_ADDED: &[&str] = &["viewpoint_looks", "reopened"];
 
 /// The stored hashes, one line per run: planner, scene file name, start, hash.
 fn results_file() -> PathBuf {
@@ -36,7 +36,9 @@ struct Case {
 
 impl Case {
     fn key(&self) -> String {
-        let start = self.start.map_or("scene".to_string(), |s| format!("random{s}"));
+        let start = self
+            .start
+            .map_or("scene".to_string(), |s| format!("random{s}"));
         let name = self.scene.file_name().unwrap().to_string_lossy();
         format!("{}\t{name}\t{start}", self.planner.name())
     }
@@ -114,10 +116,8 @@ fn default_profile_gives_the_recorded_results() {
         return;
     }
     let stored = std::fs::read_to_string(results_file()).unwrap();
-    let stored: std::collections::BTreeMap<&str, &str> = stored
-        .lines()
-        .filter_map(|l| l.rsplit_once('\t'))
-        .collect();
+    let stored: std::collections::BTreeMap<&str, &str> =
+        stored.lines().filter_map(|l| l.rsplit_once('\t')).collect();
     let mut changed = Vec::new();
     for (key, hash) in &got {
         match stored.get(key.as_str()) {

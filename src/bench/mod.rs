@@ -131,7 +131,7 @@ pub fn plan_runs(spec: &BenchSpec) -> Vec<RunSpec> {
                     key: RunKey {
                         scene_path: path.display().to_string(),
                         scene_hash: scene_hash.clone(),
-                        planner: planner.label(&spec.config).to_string(),
+                        planner: planner.label(&spec.config),
                         seed: spec.config.seed.wrapping_add(i),
                         config_hash: config_hash.clone(),
                     },
@@ -172,7 +172,7 @@ pub fn run_one(
         let path = dir.join(format!(
             "{}_{}_seed{}_{}.mcap",
             scene.name,
-            run.planner.label(&cfg),
+            run.planner.label(&cfg).replace('/', "-"),
             run.key.seed,
             &run.key.config_hash
         ));

@@ -192,10 +192,11 @@ impl Summary {
             v
         };
         let wanted = reference.unwrap_or(PlannerKind::Thp).name().to_string();
-        // With several configs, the reference is the wanted planner's first config.
-        let found = ok_planners
-            .iter()
-            .find(|l| **l == wanted || l.starts_with(&format!("{wanted}@")));
+        // With several configs, the reference is the wanted planner's first config, in the default
+        // profile if it ran (`thp`, `thp@…`), else in another (`thp/published`).
+        let found = (ok_planners.iter())
+            .find(|l| **l == wanted || l.starts_with(&format!("{wanted}@")))
+            .or_else(|| (ok_planners.iter()).find(|l| l.starts_with(&format!("{wanted}/"))));
         let reference = if let Some(found) = found {
             Some(found.clone())
         } else if reference.is_none() {

@@ -1,6 +1,6 @@
 //! `tensorscout bench`: scenes × planners × seeds in parallel, and `bench merge` for shards.
 
-use super::{note, ConfigArgs};
+use super::{note, ConfigArgs, ProfileArg};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -118,6 +118,8 @@ struct RunArgs {
     scene_spawn: bool,
     #[command(flatten)]
     config: ConfigArgs,
+    #[command(flatten)]
+    profile: ProfileArg,
     /// Runs in parallel on one thread pool (default: the number of cores; at most 1024).
     #[arg(long)]
     jobs: Option<usize>,
@@ -203,7 +205,7 @@ fn run_batch(a: RunArgs) -> Result<()> {
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
     check_out(&out, a.force, a.resume)?;
-    let mut config = a.config.load()?;
+    let mut config = a.config.load_with(&a.profile)?;
     bench::apply_spawn_rule(&mut config, a.seeds, a.scene_spawn);
     let spec = BenchSpec {
         scenes: bench::collect_scenes(&a.scenes)?,

@@ -1,6 +1,9 @@
 //! `tensorscout explore`: one run, its metrics, and optionally a picture.
 
-use super::{check_distinct, check_output, emit, note, parse_start, signals, ConfigArgs, StartArg};
+use super::{
+    check_distinct, check_output, emit, note, parse_start, signals, ConfigArgs, ProfileArg,
+    StartArg,
+};
 use anyhow::Result;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -25,6 +28,8 @@ pub struct ExploreArgs {
     planner: PlannerKind,
     #[command(flatten)]
     config: ConfigArgs,
+    #[command(flatten)]
+    profile: ProfileArg,
     /// Seed of the run's random stream (overrides the config's `seed`).
     #[arg(long)]
     seed: Option<u64>,
@@ -111,7 +116,7 @@ fn write_file(path: &std::path::Path, bytes: &[u8]) -> tensorscout::Result<()> {
 }
 
 pub fn run(args: ExploreArgs) -> Result<()> {
-    let mut cfg = args.config.load()?;
+    let mut cfg = args.config.load_with(&args.profile)?;
     if let Some(seed) = args.seed {
         cfg.seed = seed;
     }

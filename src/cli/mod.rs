@@ -62,8 +62,20 @@ tensorscout bench merge shard1 shard2 --out bench_out"
 #[derive(Subcommand)]
 enum ConfigCommand {
     /// Print the whole default config as TOML, with a comment on every key.
-    #[command(after_help = "Example:\n  tensorscout config default > my.toml")]
-    Default,
+    #[command(
+        after_help = "Examples:\n  tensorscout config default > my.toml\n  tensorscout config default --profile published"
+    )]
+    Default(ProfileArg),
+}
+
+/// The `--profile` flag of the commands that run planners.
+#[derive(Args, Clone, Default)]
+pub struct ProfileArg {
+    /// Which rules the planners follow: `tensorscout` (the default: each planner with tensorscout's
+    /// additions, `[additions]`) or `published` (each planner as its paper describes it: every
+    /// addition off). The same as `--set profile=NAME`; keys set with `--set` still win.
+    #[arg(long, value_name = "NAME", value_parser = ["tensorscout", "published"])]
+    profile: Option<String>,
 }
 
 /// Config flags shared by every command that reads a config.
@@ -83,7 +95,16 @@ pub struct ConfigArgs {
 
 impl ConfigArgs {
     fn load(&self) -> tensorscout::Result<Config> {
-        let mut cfg = Config::load(self.config.as_deref(), &self.set)?;
+        self.load_with(&ProfileArg::default())
+    }
+
+    /// The config under `--profile`, which sets the key before any `--set`.
+    fn load_with(&self, profile: &ProfileArg) -> tensorscout::Result<Config> {
+        let set: Vec<String> = (profile.profile.iter())
+            .map(|p| format!("profile={p}"))
+            .chain(self.set.iter().cloned())
+            .collect();
+        let mut cfg = Config::load(self.config.as_deref(), &set)?;
         cfg.scene.y_up |= self.y_up;
         Ok(cfg)
     }
@@ -210,6 +231,11 @@ pub fn clap_exit(e: clap::Error) -> std::process::ExitCode {
             let first = first.strip_prefix("error: ").unwrap_or(first);
             let msg = if kind == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
                 "a subcommand is required".to_string()
+            } else if let Some(clap::error::ContextValue::Strings(values)) =
+                e.get(clap::error::ContextKind::ValidValue)
+            {
+                // A value outside a fixed set: name the set on the same line.
+                format!("{first}: expected one of {}", values.join(", "))
             } else {
                 first.to_string()
             };
@@ -226,7 +252,13 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Field(args) => field::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),
-        Command::Config(ConfigCommand::Default) => emit(tensorscout::config::DEFAULT_TOML),
+        Command::Config(ConfigCommand::Default(p)) => {
+            let profile = match p.profile.as_deref() {
+                Some("published") => tensorscout::config::Profile::Published,
+                _ => tensorscout::config::Profile::Tensorscout,
+            };
+            emit(&tensorscout::config::profile_toml(profile))
+        }
     }
 }
 

@@ -20,35 +20,63 @@
 //! the occupied voxels on the way: [`Sight`]); a look gives a cell up at once only if the camera
 //! surely saw it. Before calling the map done, a planner reopens each given-up frontier cell it can
 //! reach whose unknown floor the camera would see from a reachable cell of the final map
-//! ([`FrontierVisits::reopen_seeable`]: if the camera may see it, at most [`MAX_REOPENS`] times): a
+//! ([`FrontierVisits::reopen_seeable`]: if the camera may see it, at most `additions.reopen_max` times): a
 //! look from a chosen viewpoint, away from the earlier ones where another sees it, then decides it.
 
 use super::search::DistanceField;
-use crate::config::{CameraConfig, SearchConfig};
+use super::Count;
+use crate::config::{Additions, CameraConfig};
 use crate::grid::{Cell, GridSpec};
 use crate::map::occupancy::{traverse_while, ObstacleBox, VoxelState};
 use crate::map::Map;
 use nalgebra::{Point2, Point3, Vector3};
 use std::cell::OnceCell;
 
-/// Failed attempts after which a frontier is given up.
-const MAX_ATTEMPTS: u32 = 2;
+/// The rules of `[additions]` that decide when a frontier cell is looked at again and when it is
+/// given up (see `configs/default.toml`). With `look_from_on_top` off and `viewpoint_looks` 0, a
+/// look that leaves a frontier open drops it, as Yamauchi's method does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VisitRules {
+    /// A second approach, all the way onto the frontier, after the first look.
+    pub look_from_on_top: bool,
+    /// Looks from viewpoints chosen to see a cell before it is given up (0: none).
+    pub viewpoint_looks: u32,
+    /// A new viewpoint for a cell keeps this far from the earlier ones where it can, metres.
+    pub viewpoint_away_m: f64,
+    /// Failed approaches before a frontier is given up.
+    pub approach_attempts: u32,
+    /// Radius around an aim the robot failed to reach within which the frontier is given up,
+    /// metres: about the robot's diameter, so that the next aim is a place the robot might fit.
+    pub unreached_give_up_m: f64,
+    /// Times a given-up cell may be reopened before `Complete` (0: never).
+    pub reopen_max: u32,
+}
 
-/// Radius around an aim the robot failed to reach within which the frontier is given up, metres:
-/// about the robot's diameter, so that the next aim is a place the robot might fit.
-const UNREACHED_GIVE_UP_M: f64 = 0.5;
+impl From<&Additions> for VisitRules {
+    fn from(a: &Additions) -> VisitRules {
+        VisitRules {
+            look_from_on_top: a.look_from_on_top,
+            viewpoint_looks: a.viewpoint_looks,
+            viewpoint_away_m: a.viewpoint_away_m.get(),
+            approach_attempts: a.approach_attempts,
+            unreached_give_up_m: a.unreached_give_up_m.get(),
+            reopen_max: a.reopen_max,
+        }
+    }
+}
 
 /// Whether a frontier in the camera's blind zone around the robot (never approached) is looked at
 /// before the goal chosen beyond the blind zone, whose path cost from the robot is `goal_cost`:
-/// when that cost exceeds `search.blind_zone_look_first_m` (0 by default: always).
+/// when `additions.blind_zone_step_back` is on and that cost exceeds
+/// `additions.blind_zone_look_first_m` (0 by default: always).
 ///
 /// Left until no other frontier was left, such a frontier was seen only if the robot's way passed
 /// it. A goal across the plan left it behind, and the robot drove back for it at the end: THP on
 /// `plan_ade2a47d0b`, random start 1, made four such round trips of 6–17 m (99.0 m in all; 64.1 m
 /// with this rule). On 66 real plans × 3 random starts THP drove 4.0 m less a run and GREEDY 1.2 m
 /// (BENCHMARKS.md, where thresholds from 0 to 9 m are compared).
-pub fn blind_zone_first(cfg: &SearchConfig, goal_cost: f32) -> bool {
-    f64::from(goal_cost) > cfg.blind_zone_look_first_m.get()
+pub fn blind_zone_first(rules: &Additions, goal_cost: f32) -> bool {
+    rules.blind_zone_step_back && f64::from(goal_cost) > rules.blind_zone_look_first_m.get()
 }
 
 /// One frontier being visited.
@@ -71,8 +99,9 @@ impl Visit {
 }
 
 /// What the planner remembers about frontier cells across plans.
-#[derive(Clone, Default)]
+#[derive(Clone)]
 pub struct FrontierVisits {
+    rules: VisitRules,
     unobservable: Vec<bool>,
     approached: Vec<bool>,
     /// Looked at from a distance and then from on top, and still a frontier.
@@ -82,24 +111,55 @@ pub struct FrontierVisits {
     /// Looks from a viewpoint chosen to see the cell.
     near_looks: Vec<u8>,
     /// Times given up and then reopened before `Complete` ([`FrontierVisits::reopen_seeable`]), at
-    /// most [`MAX_REOPENS`].
+    /// most `reopen_max`.
     reopened: Vec<u8>,
     /// Where looks from chosen viewpoints were taken: (looked-at cell, the robot's cell).
     looked_from: Vec<(usize, usize)>,
     /// Failed attempts per aimed-at cell.
     attempts: Vec<(usize, u32)>,
+    /// Looks taken from viewpoints chosen to see a frontier (`planner_stats.viewpoint_looks`:
+    /// sighted viewpoints, blind-zone step backs and distant views).
+    viewpoint_looks: Count,
+    /// Cells reopened before `Complete` (`planner_stats.reopened`).
+    reopened_cells: Count,
 }
 
-/// Times a given-up frontier cell may be reopened before `Complete`
-/// ([`FrontierVisits::reopen_seeable`]).
-const MAX_REOPENS: u8 = 3;
-
-/// Radius around a viewpoint a look at a cell was taken from within which the next viewpoint for
-/// that cell is chosen only if no cell outside does, metres: a look that did not show the voxel
-/// from there is unlikely to from a step beside it (about the robot's radius).
-const LOOKED_FROM_M: f64 = 0.3;
+/// The default rules (tests).
+#[cfg(test)]
+impl Default for FrontierVisits {
+    fn default() -> FrontierVisits {
+        FrontierVisits::new(VisitRules::from(
+            &crate::config::Config::default().additions,
+        ))
+    }
+}
 
 impl FrontierVisits {
+    /// No cell visited yet, under `rules`.
+    pub fn new(rules: VisitRules) -> FrontierVisits {
+        FrontierVisits {
+            rules,
+            unobservable: Vec::new(),
+            approached: Vec::new(),
+            topped: Vec::new(),
+            blinded: Vec::new(),
+            near_looks: Vec::new(),
+            reopened: Vec::new(),
+            looked_from: Vec::new(),
+            attempts: Vec::new(),
+            viewpoint_looks: Count::default(),
+            reopened_cells: Count::default(),
+        }
+    }
+
+    /// The counters of the rules (`viewpoint_looks`, `reopened`), for `planner_stats`.
+    pub fn stats(&self) -> [(&'static str, Count); 2] {
+        [
+            ("viewpoint_looks", self.viewpoint_looks),
+            ("reopened", self.reopened_cells),
+        ]
+    }
+
     /// Sizes the memory for `grid` (a no-op once sized).
     pub fn ensure(&mut self, grid: &GridSpec) {
         if self.unobservable.len() != grid.cells() {
@@ -149,14 +209,19 @@ impl FrontierVisits {
             let i = grid.index(*c);
             if self.blinded[i] && !self.topped[i] {
                 self.blinded[i] = false;
-                self.approached[i] = true;
+                // Without looks from on top there is no second approach to wait for.
+                if self.rules.look_from_on_top {
+                    self.approached[i] = true;
+                } else {
+                    self.unobservable[i] = true;
+                }
             }
         }
     }
 
     /// Before calling the map done: reopens the given-up frontier cells of `segments` that `df`
     /// reaches and whose lowest unknown voxel beside them the camera may see ([`Sight::Possible`])
-    /// from a reachable cell within its depth range, at most [`MAX_REOPENS`] times a cell. A
+    /// from a reachable cell within its depth range, at most `reopen_max` times a cell. A
     /// reopened cell next gets one look from a viewpoint chosen to see it
     /// ([`FrontierVisits::sighted_viewpoint`]: away from the earlier ones where any other sees it),
     /// and that look gives it up again. Returns the cells reopened.
@@ -189,7 +254,10 @@ impl FrontierVisits {
         for &i in segments.iter().flatten() {
             let given_up = self.unobservable[i] || given_up_elsewhere(i);
             // The bound is checked here too: the sight tests cost a scan of the ring.
-            if !given_up || self.reopened[i] >= MAX_REOPENS || df.cost_to(i).is_none() {
+            if !given_up
+                || u32::from(self.reopened[i]) >= self.rules.reopen_max
+                || df.cost_to(i).is_none()
+            {
                 continue;
             }
             let lowest = lowest_unknown_beside(map, i);
@@ -204,6 +272,9 @@ impl FrontierVisits {
                 self.near_looks[i] = self.near_looks[i].max(1);
                 reopened.push(i);
             }
+        }
+        if !reopened.is_empty() {
+            self.reopened_cells.add(reopened.len() as f64);
         }
         reopened
     }
@@ -231,7 +302,7 @@ impl FrontierVisits {
     /// still in view from nearer or farther; giving the cell up without that look ended runs
     /// `complete` with observable space unseen beside a frontier.
     ///
-    /// Cells within [`LOOKED_FROM_M`] of a viewpoint a look at `aim` was taken from are chosen only
+    /// Cells within `viewpoint_away_m` of a viewpoint a look at `aim` was taken from are chosen only
     /// where no other cell is: a second look from the same place mostly shows what the first did,
     /// but the map may have changed since, or the robot stand a little apart.
     pub fn sighted_viewpoint(
@@ -267,7 +338,8 @@ impl FrontierVisits {
         if from.is_empty() {
             return tiers(&ring, &wide);
         }
-        let away = |ring: &[(f32, usize)]| away_from(grid, &from, ring);
+        let away_m = self.rules.viewpoint_away_m;
+        let away = |ring: &[(f32, usize)]| away_from(grid, &from, ring, away_m);
         tiers(&away(&ring), &|| away(wide_ring())).or_else(|| tiers(&ring, &wide))
     }
 
@@ -358,6 +430,8 @@ impl FrontierVisits {
                 // counts (a distant view aims at a cell the robot cannot reach, which would otherwise
                 // be looked at from the same viewpoint again and again).
                 let from = grid.cell_of(robot).map(|c| grid.index(c));
+                self.viewpoint_looks.add(1.0);
+                let max_looks = self.rules.viewpoint_looks.max(1);
                 for c in &visit.target {
                     let i = grid.index(*c);
                     let waits_for_approach =
@@ -375,7 +449,7 @@ impl FrontierVisits {
                     if let Some(v) = from {
                         self.looked_from.push((i, v));
                     }
-                    if seeable || self.near_looks[i] >= 2 {
+                    if seeable || u32::from(self.near_looks[i]) >= max_looks {
                         self.unobservable[i] = true;
                     } else {
                         self.approached[i] = true;
@@ -392,12 +466,28 @@ impl FrontierVisits {
                     }
                 }
             } else {
+                // The first look. Without looks from on top, a cell beyond the blind zone that it
+                // left open next gets a viewpoint look if those are on, and is dropped if not; a
+                // cell inside the blind zone, which the look could not show, likewise.
+                let (on_top, viewpoints) =
+                    (self.rules.look_from_on_top, self.rules.viewpoint_looks > 0);
                 for c in &visit.target {
                     let i = grid.index(*c);
                     if !in_blind_zone(*c) {
                         self.approached[i] = true;
+                        if !on_top {
+                            if viewpoints {
+                                self.topped[i] = true;
+                            } else {
+                                self.unobservable[i] = true;
+                            }
+                        }
                     } else if !self.approached[i] {
-                        self.blinded[i] = true;
+                        if viewpoints {
+                            self.blinded[i] = true;
+                        } else {
+                            self.unobservable[i] = true;
+                        }
                     }
                 }
             }
@@ -411,19 +501,19 @@ impl FrontierVisits {
             }
         };
         entry.1 += 1;
-        if entry.1 >= MAX_ATTEMPTS {
+        if entry.1 >= self.rules.approach_attempts {
             self.give_up_near_aim(grid, visit);
         }
     }
 
-    /// Marks the target cells within [`UNREACHED_GIVE_UP_M`] of the aim unobservable: the robot could
+    /// Marks the target cells within `unreached_give_up_m` of the aim unobservable: the robot could
     /// not get there, but the rest of the segment (up to a metre of frontier) may well be reachable
     /// from another side, and giving it all up ended runs with whole rooms behind it unentered.
     fn give_up_near_aim(&mut self, grid: &GridSpec, visit: &Visit) {
         self.give_up_around(grid, visit.aim, visit.target.iter().map(|c| grid.index(*c)));
     }
 
-    /// Marks `aim` and the `cells` within [`UNREACHED_GIVE_UP_M`] of it unobservable: a place the
+    /// Marks `aim` and the `cells` within `unreached_give_up_m` of it unobservable: a place the
     /// robot failed to get to.
     pub fn give_up_around(
         &mut self,
@@ -434,11 +524,52 @@ impl FrontierVisits {
         let p = grid.center(grid.cell(aim));
         self.unobservable[aim] = true;
         for i in cells {
-            if (grid.center(grid.cell(i)) - p).norm() <= UNREACHED_GIVE_UP_M {
+            if (grid.center(grid.cell(i)) - p).norm() <= self.rules.unreached_give_up_m {
                 self.unobservable[i] = true;
             }
         }
     }
+}
+
+/// What a frontier planner does once no reachable frontier is left to visit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Ending<V> {
+    /// Look at a frontier seen through a gap too narrow to pass (`additions.distant_views`).
+    DistantView(DistantView),
+    /// Drive to a view of unknown volume that no frontier shows (`additions.volume_views`).
+    VolumeView(V),
+    /// Given-up frontier cells were reopened (`additions.reopen_max`): look, then plan again.
+    Reopened,
+    /// Nothing is left: the map is complete.
+    Complete,
+}
+
+/// The end-of-run sequence, the one place its order and switches live (GREEDY and THP; NBV-TSP
+/// without volume views): distant views, then volume views, then reopening, then `Complete`. Each
+/// step is asked of `state` (the planner) only if the steps before it gave nothing and its switch
+/// in `rules` is on: `distant` gives the next distant view, `volume` the next volume view (`None`
+/// when the planner has none), `reopen` reopens what it can and says whether it reopened anything.
+pub fn end_of_run<S, V>(
+    rules: &Additions,
+    state: &mut S,
+    distant: impl FnOnce(&S) -> Option<DistantView>,
+    volume: impl FnOnce(&mut S) -> Option<V>,
+    reopen: impl FnOnce(&mut S) -> bool,
+) -> Ending<V> {
+    if rules.distant_views {
+        if let Some(view) = distant(state) {
+            return Ending::DistantView(view);
+        }
+    }
+    if rules.volume_views {
+        if let Some(view) = volume(state) {
+            return Ending::VolumeView(view);
+        }
+    }
+    if rules.reopen_max > 0 && reopen(state) {
+        return Ending::Reopened;
+    }
+    Ending::Complete
 }
 
 /// For the frontier cell `aim` in the camera's blind zone: the least-cost traversable cell `view_m`
@@ -459,12 +590,17 @@ pub fn blind_zone_viewpoint(
         .or(ring.first().map(|&(_, v)| v))
 }
 
-/// The cells of `ring` farther than [`LOOKED_FROM_M`] from every point of `from`.
-fn away_from(grid: &GridSpec, from: &[Point2<f64>], ring: &[(f32, usize)]) -> Vec<(f32, usize)> {
+/// The cells of `ring` farther than `away_m` from every point of `from`.
+fn away_from(
+    grid: &GridSpec,
+    from: &[Point2<f64>],
+    ring: &[(f32, usize)],
+    away_m: f64,
+) -> Vec<(f32, usize)> {
     (ring.iter().copied())
         .filter(|&(_, v)| {
             let p = grid.center(grid.cell(v));
-            from.iter().all(|f| (p - f).norm() > LOOKED_FROM_M)
+            from.iter().all(|f| (p - f).norm() > away_m)
         })
         .collect()
 }
@@ -975,7 +1111,7 @@ mod tests {
     /// camera would surely see the unknown floor beside it from a reachable cell: it next wants a
     /// viewpoint, a second call before its look does not count again, and the look from the
     /// viewpoint gives it up. While the voxel stays unknown and in sight that repeats, each look
-    /// from a viewpoint away from the earlier ones, at most `MAX_REOPENS` times; then the cell
+    /// from a viewpoint away from the earlier ones, at most `additions.reopen_max` times; then the cell
     /// stays given up. Where every cell was looked from, the viewpoint is the one chosen first.
     #[test]
     fn a_given_up_cell_the_camera_would_see_is_reopened_a_bounded_number_of_times() {
@@ -1032,7 +1168,7 @@ mod tests {
         };
         let mut looked_from: Vec<Point2<f64>> = Vec::new();
         // The map does not change here, so the voxel stays unknown and in sight after every look.
-        for _ in 0..MAX_REOPENS {
+        for _ in 0..Config::default().additions.reopen_max {
             assert!(visits
                 .reopen_seeable(&map, &df, &segments, &cam, |_| false)
                 .contains(&aim));
@@ -1044,7 +1180,8 @@ mod tests {
                 .sighted_viewpoint(&map, &df, aim, 1.2, &cam)
                 .expect("a viewpoint");
             let at = grid.center(grid.cell(viewpoint));
-            assert!(looked_from.iter().all(|p| (p - at).norm() > LOOKED_FROM_M));
+            let away_m = Config::default().additions.viewpoint_away_m.get();
+            assert!(looked_from.iter().all(|p| (p - at).norm() > away_m));
             looked_from.push(at);
             visits.finished(&map, &look, true, at, 1.0, &cam);
             assert!(visits.is_unobservable(aim));
@@ -1061,7 +1198,7 @@ mod tests {
         assert_eq!(visits.sighted_viewpoint(&map, &df, aim, 1.2, &cam), first);
     }
 
-    /// A look at a cell from a viewpoint rules out the viewpoints within `LOOKED_FROM_M` of it for
+    /// A look at a cell from a viewpoint rules out the viewpoints within `additions.viewpoint_away_m` of it for
     /// that cell only.
     #[test]
     fn viewpoints_near_where_a_cell_was_looked_at_from_are_not_chosen_for_it_again() {
@@ -1074,7 +1211,7 @@ mod tests {
             .iter()
             .map(|&x| (x as f32, at(x)))
             .collect();
-        let away = |cell: usize| away_from(&grid, &visits.looked_from_at(&grid, cell), &ring);
+        let away = |cell: usize| away_from(&grid, &visits.looked_from_at(&grid, cell), &ring, 0.3);
         let kept: Vec<usize> = away(at(0.05)).iter().map(|r| r.1).collect();
         assert_eq!(kept, vec![at(0.65), at(1.45)]);
         assert_eq!(away(at(0.15)), ring);

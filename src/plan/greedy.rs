@@ -1,24 +1,33 @@
-//! GREEDY: nearest-frontier exploration (Yamauchi 1997), the classic baseline.
+//! GREEDY: nearest-frontier exploration (Yamauchi, "A frontier-based approach for autonomous
+//! exploration", CIRA 1997), the classic baseline.
 //!
-//! The robot drives toward the frontier segment nearest by path cost (one Dijkstra field from the
-//! robot), stops `view_distance_m` short of it (see [`super::frontier_visit`]), turns once in place to
-//! look into the unknown, and re-plans as soon as its target segment has been seen or its path is
-//! blocked. A frontier cell within `search.near_unknown_radius_m` of the robot lies in the camera's
-//! blind zone: the robot first steps back to where the camera sees it, before driving to a frontier
-//! farther than `search.blind_zone_look_first_m` (not part of Yamauchi's method; see
-//! [`super::frontier_visit::blind_zone_first`]). When no reachable frontier is left,
-//! the robot still looks once at each frontier seen through a gap too narrow to pass, from a reachable
-//! cell in line of sight (see [`super::frontier_visit::distant_view`]), and then, with
-//! `volume_views.enabled` (on by default; not part of Yamauchi's method), drives to each place from
-//! which the camera would still see unknown volume that no frontier shows
-//! ([`super::view_gain::VolumeViews`]). The run is complete when none of these is left.
+//! Yamauchi's method, as this code reads it for a forward depth camera (the `published` profile):
+//! the robot drives toward the frontier segment nearest by path cost (one Dijkstra field from the
+//! robot), stops `greedy.view_distance_m` short of it along the path (a forward camera does not see
+//! the floor in front of it, so a look at a frontier is taken from a step back), turns once in
+//! place to look (Yamauchi's sensor sweep on arrival), and re-plans as soon as its target segment
+//! has been seen or its path is blocked by a newly seen obstacle (not counted as a failure). A
+//! frontier still open after that look is dropped, as is one the robot fails to reach
+//! (`additions.approach_attempts` = 1: the cells within `additions.unreached_give_up_m` of its aim).
+//! The run is complete when no reachable frontier is left.
+//!
+//! The default profile adds the rules of `[additions]` (none in Yamauchi's method; see
+//! [`super::frontier_visit`]): a second approach and a look from on top
+//! (`look_from_on_top`), looks from viewpoints chosen to see the floor beside a frontier
+//! (`viewpoint_looks`), a step back to see a frontier in the camera's blind zone before driving
+//! away (`blind_zone_step_back`, [`super::frontier_visit::blind_zone_first`]), and the end-of-run
+//! sequence ([`super::frontier_visit::end_of_run`]): a look at each frontier seen through a gap too
+//! narrow to pass (`distant_views`), views of the unknown volume no frontier shows
+//! (`volume_views`, [`super::view_gain::VolumeViews`]) and the reopening of given-up frontiers
+//! the camera would still see (`reopen_max`).
 //!
 //! Statistics: `path_m_frontier`, `path_m_blind_zone`, `path_m_distant_view` and
 //! `path_m_volume_view` split the path by the goal the robot was driving to (a look from a viewpoint
 //! chosen for a frontier counts under `frontier`), to compare with THP's split of the same names.
 
 use super::frontier_visit::{
-    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, end_of_run, follow_to, Ending,
+    FrontierVisits, Visit, VisitRules,
 };
 use super::view_gain::VolumeViews;
 use super::{Action, Count, Odometer, Plan, PlanContext, Planner};
@@ -40,7 +49,7 @@ pub struct Greedy {
     rerouted: bool,
     /// Looks through gaps too narrow to pass (`planner_stats.distant_views`).
     distant_views: Count,
-    /// Views of the unknown volume before `Complete` (`volume_views.enabled`), if on.
+    /// Views of the unknown volume before `Complete` (`additions.volume_views`), if on.
     volume_views: Option<VolumeViews>,
     /// The goal being driven to, and the metres driven per kind of goal (`path_m_*`).
     goal_kind: GoalKind,
@@ -71,12 +80,13 @@ impl GoalKind {
 }
 
 impl Greedy {
-    /// GREEDY with its section of the config, and the volume views it takes before `Complete`
-    /// (`None`: it completes when no frontier is left, as Yamauchi's method).
-    pub fn new(cfg: &GreedyConfig, volume_views: Option<VolumeViews>) -> Self {
+    /// GREEDY with its section of the config, the rules by which it gives frontiers up, and the
+    /// volume views it takes before `Complete` (`None`: it completes when no frontier is left, as
+    /// Yamauchi's method).
+    pub fn new(cfg: &GreedyConfig, rules: VisitRules, volume_views: Option<VolumeViews>) -> Self {
         Greedy {
             cfg: cfg.clone(),
-            visits: FrontierVisits::default(),
+            visits: FrontierVisits::new(rules),
             visit: None,
             path_cells: Vec::new(),
             rerouted: false,
@@ -114,8 +124,9 @@ impl Greedy {
         let Some(start) = grid.cell_of(ctx.pose.position()).map(|c| grid.index(c)) else {
             return Ok(Action::Complete);
         };
-        let map = ctx.map;
-        let (search_cfg, robot) = (&ctx.cfg.search, ctx.pose.position());
+        let (map, params) = (ctx.map, ctx.cfg);
+        let (search_cfg, robot) = (&params.search, ctx.pose.position());
+        let step_back = params.additions.blind_zone_step_back;
         let near2 = search_cfg.near_unknown_radius_m.powi(2);
         let df = ctx.search.distance_field(
             &grid,
@@ -138,7 +149,8 @@ impl Greedy {
                     // A frontier approached once (stopped short of, looked at) competes as any
                     // other even inside the blind zone: its second approach comes while the robot
                     // is there (the rule THP shares).
-                    let near = (grid.center(*c) - robot).norm_squared() <= near2
+                    let near = step_back
+                        && (grid.center(*c) - robot).norm_squared() <= near2
                         && !self.visits.was_approached(i);
                     let slot = if near { &mut best_near } else { &mut best };
                     if slot.is_none_or(|(bd, bi, _)| (d, i) < (bd, bi)) {
@@ -150,47 +162,53 @@ impl Greedy {
         let look_on_arrival = self.cfg.look_around_on_arrival;
         let view_m = self.cfg.view_distance_m.get();
         // A frontier in the blind zone comes first, unless the nearest one beyond it is within
-        // `search.blind_zone_look_first_m` (the robot would not drive away from it).
-        let best = best.filter(|b| best_near.is_none() || !blind_zone_first(search_cfg, b.0));
+        // `additions.blind_zone_look_first_m` (the robot would not drive away from it).
+        let best =
+            best.filter(|b| best_near.is_none() || !blind_zone_first(&params.additions, b.0));
         let Some((_, goal, k)) = best else {
             // A frontier in the blind zone is next: step back to a viewpoint from which the
             // camera sees the floor there.
             let Some((_, near_goal, k)) = best_near else {
-                // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
-                // pass, each once, before calling the map done.
+                // Nothing reachable is left: the end-of-run sequence.
                 let cells: Vec<Vec<usize>> = segments
                     .iter()
                     .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
                     .collect();
-                let Some(view) =
-                    distant_view(map, &df, &cells, |i| self.visits.is_unobservable(i), view_m)
-                else {
-                    // Then at the unknown volume no frontier shows, if on.
-                    let Some(view) = self.volume_views.as_mut().and_then(|v| v.next(map, &df))
-                    else {
-                        let camera = &ctx.cfg.camera;
-                        let reopened =
-                            (self.visits).reopen_seeable(map, &df, &cells, camera, |_| false);
-                        if !reopened.is_empty() {
-                            return Ok(Action::LookAround);
-                        }
-                        return Ok(Action::Complete);
-                    };
-                    self.goal_kind = GoalKind::VolumeView;
-                    let action;
-                    (action, self.path_cells) = follow_to(&grid, &df, view.cell, true, false);
-                    return Ok(action);
-                };
-                self.distant_views.add(1.0);
-                self.goal_kind = GoalKind::DistantView;
-                self.visit = Some(Visit {
-                    target: segments[view.segment].cells.clone(),
-                    aim: view.aim,
-                    near_view: true,
+                let ending = end_of_run(
+                    &params.additions,
+                    self,
+                    |g| distant_view(map, &df, &cells, |i| g.visits.is_unobservable(i), view_m),
+                    |g| g.volume_views.as_mut().and_then(|v| v.next(map, &df)),
+                    |g| {
+                        let camera = &params.camera;
+                        !(g.visits)
+                            .reopen_seeable(map, &df, &cells, camera, |_| false)
+                            .is_empty()
+                    },
+                );
+                return Ok(match ending {
+                    Ending::DistantView(view) => {
+                        self.distant_views.add(1.0);
+                        self.goal_kind = GoalKind::DistantView;
+                        self.visit = Some(Visit {
+                            target: segments[view.segment].cells.clone(),
+                            aim: view.aim,
+                            near_view: true,
+                        });
+                        let action;
+                        (action, self.path_cells) =
+                            follow_to(&grid, &df, view.viewpoint, true, true);
+                        action
+                    }
+                    Ending::VolumeView(view) => {
+                        self.goal_kind = GoalKind::VolumeView;
+                        let action;
+                        (action, self.path_cells) = follow_to(&grid, &df, view.cell, true, false);
+                        action
+                    }
+                    Ending::Reopened => Action::LookAround,
+                    Ending::Complete => Action::Complete,
                 });
-                let action;
-                (action, self.path_cells) = follow_to(&grid, &df, view.viewpoint, true, true);
-                return Ok(action);
             };
             self.visit = Some(Visit {
                 target: segments[k].cells.clone(),
@@ -279,6 +297,7 @@ impl Planner for Greedy {
                 ("volume_views", VolumeViews::taken(&self.volume_views)),
             ]
             .into_iter()
+            .chain(self.visits.stats())
             .chain(GoalKind::KEYS.into_iter().zip(self.path_m)),
         )
     }
@@ -308,13 +327,13 @@ mod tests {
     /// while frontiers beyond it lie farther east.
     fn first_aim_from_robot_m(look_first_m: f64) -> f64 {
         let mut cfg = Config::default();
-        cfg.search.blind_zone_look_first_m = NonNegative::new(look_first_m).unwrap();
+        cfg.additions.blind_zone_look_first_m = NonNegative::new(look_first_m).unwrap();
         let (grid, bvh) = furnished_room_setup(&cfg);
         let pose = Pose2::new(1.0, 4.0, 0.0);
         let map = seen_from(grid, &cfg, &bvh, [pose]);
         let params = PlanParams::from(&cfg);
         let mut search = Search::new(&grid);
-        let mut greedy = Greedy::new(&cfg.greedy, None);
+        let mut greedy = Greedy::new(&cfg.greedy, (&cfg.additions).into(), None);
         let mut ctx = PlanContext {
             map: &map,
             pose,

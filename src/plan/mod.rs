@@ -13,11 +13,12 @@ pub mod thp;
 pub mod tsp;
 pub(crate) mod view_gain;
 
-use crate::config::{CameraConfig, Config, MotionConfig, RobotConfig, SearchConfig};
+use crate::config::{Additions, CameraConfig, Config, MotionConfig, RobotConfig, SearchConfig};
 use crate::field::TensorField;
 use crate::grid::Cell;
 use crate::map::Map;
 use crate::{Pose2, Result};
+pub use frontier_visit::VisitRules;
 use nalgebra::Point2;
 use search::Search;
 use std::collections::BTreeMap;
@@ -41,6 +42,8 @@ pub struct PlanParams {
     pub robot: RobotConfig,
     pub motion: MotionConfig,
     pub camera: CameraConfig,
+    /// The rules no paper has, each with its switch (`[additions]`).
+    pub additions: Additions,
 }
 
 impl From<&Config> for PlanParams {
@@ -50,6 +53,7 @@ impl From<&Config> for PlanParams {
             robot: cfg.robot.clone(),
             motion: cfg.motion.clone(),
             camera: cfg.camera.clone(),
+            additions: cfg.additions.clone(),
         }
     }
 }
@@ -454,11 +458,17 @@ impl PlannerKind {
     }
 
     /// The name results and bench tables carry under `cfg`: the command-line name, except that TENSOR
-    /// with its GREEDY hand-over on is `tensor+greedy`, so that the two are never averaged together.
-    pub fn label(self, cfg: &Config) -> &'static str {
-        match self {
+    /// with its GREEDY hand-over on is `tensor+greedy`, and a run under the `published` profile has
+    /// `/published` after its name (`greedy/published`), so that rows of different rules are never
+    /// averaged together. A bare name is the default profile.
+    pub fn label(self, cfg: &Config) -> String {
+        let name = match self {
             PlannerKind::Tensor if cfg.tensor.fallback => tensor::FALLBACK_LABEL,
             _ => self.name(),
+        };
+        match cfg.profile {
+            crate::config::Profile::Tensorscout => name.to_string(),
+            profile => format!("{name}/{}", profile.name()),
         }
     }
 
@@ -467,6 +477,7 @@ impl PlannerKind {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(
                 &cfg.greedy,
+                (&cfg.additions).into(),
                 view_gain::VolumeViews::new(&cfg.into()),
             ))),
             PlannerKind::Thp => Ok(Box::new(thp::Thp::new(&thp::ThpParams::from(cfg)))),

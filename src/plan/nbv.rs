@@ -45,11 +45,13 @@
 //!   once from a reachable cell in line of sight ([`super::frontier_visit::distant_view`], shared
 //!   with GREEDY and THP).
 
-use super::frontier_visit::{distant_view, follow_to, line_of_sight, FrontierVisits, Visit};
+use super::frontier_visit::{
+    distant_view, end_of_run, follow_to, line_of_sight, Ending, FrontierVisits, Visit,
+};
 use super::tsp::{self, CostMatrix, GaParams};
 use super::view_gain::GainModel;
 use super::{Action, Count, Plan, PlanContext, Planner};
-use crate::config::{CameraConfig, Config, NbvConfig};
+use crate::config::{Additions, CameraConfig, Config, NbvConfig};
 use crate::map::Map;
 use crate::Result;
 use nalgebra::Point2;
@@ -59,8 +61,6 @@ use std::collections::BTreeMap;
 use std::f64::consts::TAU;
 use std::time::Instant;
 
-/// Failed approaches after which a viewpoint cell is given up.
-const MAX_ATTEMPTS: u32 = 2;
 /// Steps between re-evaluations of the target's gain while driving (1 s at the default `dt`).
 const RECHECK_STEPS: u32 = 10;
 
@@ -76,6 +76,9 @@ pub struct NbvParams {
     /// `greedy.view_distance_m`.
     pub view_distance_m: f64,
     pub seed: u64,
+    /// The rules no paper has (`[additions]`): NBV-TSP's frontier views, distant views and
+    /// reopening before `Complete`, and the failed approaches before a viewpoint is given up.
+    pub additions: Additions,
 }
 
 impl From<&Config> for NbvParams {
@@ -86,6 +89,7 @@ impl From<&Config> for NbvParams {
             band_m: (cfg.map.band_min_m, cfg.map.band_max_m),
             view_distance_m: cfg.greedy.view_distance_m.get(),
             seed: cfg.seed,
+            additions: cfg.additions.clone(),
         }
     }
 }
@@ -116,6 +120,8 @@ struct Viewpoint {
 
 /// The NBV-TSP planner.
 pub struct Nbv {
+    /// The rules no paper has (`[additions]`).
+    rules: Additions,
     model: GainModel,
     cfg: NbvConfig,
     /// GREEDY's `view_distance_m`, for the look through a gap.
@@ -167,6 +173,7 @@ impl Nbv {
         Nbv {
             model: GainModel::new(&cfg.camera, cfg.band_m, &cfg.nbv),
             cfg: cfg.nbv.clone(),
+            rules: cfg.additions.clone(),
             view_m: cfg.view_distance_m,
             // The planner's own stream, derived from the run's seed.
             rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x6e62_7674_7370),
@@ -175,7 +182,7 @@ impl Nbv {
             path_cells: Vec::new(),
             given_up: Vec::new(),
             distant_done: Vec::new(),
-            visits: FrontierVisits::default(),
+            visits: FrontierVisits::new((&cfg.additions).into()),
             attempts: BTreeMap::new(),
             distant: None,
             target_seen: false,
@@ -356,7 +363,7 @@ impl Nbv {
         // passable only near the robot), and no viewpoint short of it predicts any gain. The robot
         // looks at that cell from where the camera sees the floor beside it, if anywhere does
         // (shared with GREEDY and THP), else from the cell itself.
-        if self.viewpoints.is_empty() {
+        if self.viewpoints.is_empty() && self.rules.nbv_frontier_views {
             for seg in map.frontiers() {
                 if self.viewpoints.len() >= self.cfg.max_viewpoints {
                     break;
@@ -402,22 +409,33 @@ impl Nbv {
                 .iter()
                 .map(|s| s.cells.iter().map(|c| grid.index(*c)).collect())
                 .collect();
-            let done = |i: usize| self.distant_done[i] || self.given_up[i];
-            let view_m = self.view_m;
-            let Some(view) = distant_view(map, &df, &segments, done, view_m) else {
-                // A frontier cell given up as a viewpoint counts as given up too; reopened, it is
-                // open to the looks above again.
-                let given_up = &self.given_up;
-                let camera = &ctx.cfg.camera;
-                let reopened =
-                    (self.visits).reopen_seeable(map, &df, &segments, camera, |i| given_up[i]);
-                for &i in &reopened {
-                    self.given_up[i] = false;
-                }
-                if !reopened.is_empty() {
-                    return Ok(Action::LookAround);
-                }
-                return Ok(Action::Complete);
+            let (rules, view_m, params) = (self.rules.clone(), self.view_m, ctx.cfg);
+            let camera = &params.camera;
+            let ending = end_of_run(
+                &rules,
+                self,
+                |nbv| {
+                    let done = |i: usize| nbv.distant_done[i] || nbv.given_up[i];
+                    distant_view(map, &df, &segments, done, view_m)
+                },
+                // NBV-TSP's own viewpoints already cover the volume: it takes no volume views.
+                |_| None::<()>,
+                |nbv| {
+                    // A frontier cell given up as a viewpoint counts as given up too; reopened, it
+                    // is open to the looks above again.
+                    let given_up = &nbv.given_up;
+                    let reopened =
+                        (nbv.visits).reopen_seeable(map, &df, &segments, camera, |i| given_up[i]);
+                    for &i in &reopened {
+                        nbv.given_up[i] = false;
+                    }
+                    !reopened.is_empty()
+                },
+            );
+            let view = match ending {
+                Ending::DistantView(view) => view,
+                Ending::VolumeView(()) | Ending::Reopened => return Ok(Action::LookAround),
+                Ending::Complete => return Ok(Action::Complete),
             };
             self.stats.distant_views.add(1.0);
             self.distant = Some((view.aim, segments[view.segment].clone()));
@@ -538,7 +556,7 @@ impl Planner for Nbv {
             // A look through a gap: done once looked, or after failing to get there twice.
             let a = self.attempts.entry(aim).or_insert(0);
             *a += u32::from(!reached);
-            if reached || *a >= MAX_ATTEMPTS {
+            if reached || *a >= self.rules.approach_attempts {
                 for i in cells {
                     self.distant_done[i] = true;
                 }
@@ -581,7 +599,7 @@ impl Planner for Nbv {
         } else {
             let a = self.attempts.entry(cell).or_insert(0);
             *a += 1;
-            if *a >= MAX_ATTEMPTS {
+            if *a >= self.rules.approach_attempts {
                 self.given_up[cell] = true;
                 self.viewpoints.remove(k);
                 self.stats.viewpoints_given_up.add(1.0);
@@ -592,19 +610,23 @@ impl Planner for Nbv {
 
     fn stats(&self) -> BTreeMap<String, f64> {
         let s = &self.stats;
-        super::counted([
-            ("anchor_tries", s.anchor_tries),
-            ("distant_views", s.distant_views),
-            ("anchors_visited", s.anchors_visited),
-            ("gain_evaluations", s.gain_evaluations),
-            ("tsp_nodes", s.tsp_nodes),
-            ("tsp_solves", s.tsp_solves),
-            ("viewpoints_dropped", s.viewpoints_dropped),
-            ("viewpoints_given_up", s.viewpoints_given_up),
-            ("viewpoints_pruned", s.viewpoints_pruned),
-            ("viewpoints_sampled", s.viewpoints_sampled),
-            ("viewpoints_visited", s.viewpoints_visited),
-        ])
+        super::counted(
+            [
+                ("anchor_tries", s.anchor_tries),
+                ("distant_views", s.distant_views),
+                ("anchors_visited", s.anchors_visited),
+                ("gain_evaluations", s.gain_evaluations),
+                ("tsp_nodes", s.tsp_nodes),
+                ("tsp_solves", s.tsp_solves),
+                ("viewpoints_dropped", s.viewpoints_dropped),
+                ("viewpoints_given_up", s.viewpoints_given_up),
+                ("viewpoints_pruned", s.viewpoints_pruned),
+                ("viewpoints_sampled", s.viewpoints_sampled),
+                ("viewpoints_visited", s.viewpoints_visited),
+            ]
+            .into_iter()
+            .chain(self.visits.stats()),
+        )
     }
 }
 

@@ -3,7 +3,7 @@
 //! complete ([`VolumeViews`]).
 
 use super::search::DistanceField;
-use crate::config::{CameraConfig, Config, NbvConfig, VolumeViewsConfig};
+use crate::config::{CameraConfig, Config, NbvConfig};
 use crate::grid::{Cell, GridSpec};
 use crate::map::occupancy::{traverse_while, Occupancy, VoxelState};
 use crate::map::Map;
@@ -447,7 +447,7 @@ const COST_OFFSET_M: f64 = 1.0;
 
 /// Volume views: before calling the map complete, GREEDY and THP drive to the floor position with
 /// the most expected unknown band volume per metre of path (gain ÷ (path cost + 1 m), NBV-TSP's gain
-/// model [`GainModel`]) among those whose gain reaches `volume_views.gain_cutoff_m3`, and turn once
+/// model [`GainModel`]) among those whose gain reaches `additions.volume_view_gain_cutoff_m3`, and turn once
 /// there, until no such position is left. Ranked per metre rather than nearest first: on 33 real
 /// plans that gave higher completeness for the same path (0.953 against 0.949, about 52 m both).
 ///
@@ -456,7 +456,7 @@ const COST_OFFSET_M: f64 = 1.0;
 /// away or more, and space over and behind furniture only from some angles. A run that has reached
 /// every 2D frontier can therefore still leave observable volume unseen; on real apartment plans
 /// that was 5–8 % of it. This is not in the THP paper, nor in Yamauchi's GREEDY; it is a config
-/// option (`volume_views.enabled`), **on by default** for both: on the 66 plans of
+/// option (`additions.volume_views`), **on by default** for both: on the 66 plans of
 /// `scenes/floorplans/` (GREEDY, scene spawn) it raised mean completeness from 0.916 to 0.956 for
 /// about 26 m more path a run (+80 %). THP's rule for a mechanism the paper lacks is that it is on
 /// by default only if it serves the paper's goal, a shorter path at similar completeness; the
@@ -484,11 +484,16 @@ pub struct VolumeViews {
     evaluated: usize,
 }
 
-/// What [`VolumeViews`] reads of the config: its own section, and the gain model's camera, height
-/// band and `nbv` keys.
+/// What [`VolumeViews`] reads of the config: its switch and parameters in `[additions]`, and the
+/// gain model's camera, height band and `nbv` keys.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VolumeViewParams {
-    pub volume_views: VolumeViewsConfig,
+    /// `additions.volume_views`.
+    pub enabled: bool,
+    /// `additions.volume_view_gain_cutoff_m3`.
+    pub gain_cutoff_m3: f64,
+    /// `additions.volume_view_spacing_m`.
+    pub spacing_m: f64,
     pub camera: CameraConfig,
     /// `map.band_min_m`, `map.band_max_m`.
     pub band_m: (f64, f64),
@@ -498,7 +503,9 @@ pub struct VolumeViewParams {
 impl From<&Config> for VolumeViewParams {
     fn from(cfg: &Config) -> Self {
         VolumeViewParams {
-            volume_views: cfg.volume_views.clone(),
+            enabled: cfg.additions.volume_views,
+            gain_cutoff_m3: cfg.additions.volume_view_gain_cutoff_m3.get(),
+            spacing_m: cfg.additions.volume_view_spacing_m.get(),
             camera: cfg.camera.clone(),
             band_m: (cfg.map.band_min_m, cfg.map.band_max_m),
             nbv: cfg.nbv.clone(),
@@ -514,12 +521,12 @@ pub struct VolumeView {
 }
 
 impl VolumeViews {
-    /// Volume views with these parameters, or `None` when `volume_views.enabled` is off.
+    /// Volume views with these parameters, or `None` when `additions.volume_views` is off.
     pub fn new(p: &VolumeViewParams) -> Option<Self> {
-        p.volume_views.enabled.then(|| VolumeViews {
+        p.enabled.then(|| VolumeViews {
             model: GainModel::new(&p.camera, p.band_m, &p.nbv),
-            cutoff_m3: p.volume_views.gain_cutoff_m3.get(),
-            spacing_m: p.volume_views.spacing_m.get(),
+            cutoff_m3: p.gain_cutoff_m3,
+            spacing_m: p.spacing_m,
             given_up: Vec::new(),
             taken: super::Count::default(),
             gains: Vec::new(),
@@ -1010,9 +1017,9 @@ mod tests {
     /// Volume views on a 0.5 m lattice (fewer candidates than the default, for a quick test).
     fn views_with_cutoff(cutoff_m3: f64) -> Option<VolumeViews> {
         let mut cfg = Config::default();
-        cfg.volume_views.enabled = true;
-        cfg.volume_views.gain_cutoff_m3 = cutoff_m3.try_into().unwrap();
-        cfg.volume_views.spacing_m = 0.5.try_into().unwrap();
+        cfg.additions.volume_views = true;
+        cfg.additions.volume_view_gain_cutoff_m3 = cutoff_m3.try_into().unwrap();
+        cfg.additions.volume_view_spacing_m = 0.5.try_into().unwrap();
         VolumeViews::new(&VolumeViewParams::from(&cfg))
     }
 
@@ -1026,7 +1033,8 @@ mod tests {
         let grid = *map.grid();
         let run = |threads: usize| {
             crate::util::on_threads(threads, || {
-                let mut views = views_with_cutoff(cfg.volume_views.gain_cutoff_m3.get()).unwrap();
+                let mut views =
+                    views_with_cutoff(cfg.additions.volume_view_gain_cutoff_m3.get()).unwrap();
                 std::iter::from_fn(|| views.next(&map, &df))
                     .take(10_000)
                     .collect::<Vec<_>>()
@@ -1036,7 +1044,7 @@ mod tests {
         assert!(!one.is_empty(), "the band's top near the walls is unknown");
         assert!(one.len() < 10_000, "views ran out");
         for (k, v) in one.iter().enumerate() {
-            assert!(v.gain_m3 >= cfg.volume_views.gain_cutoff_m3.get());
+            assert!(v.gain_m3 >= cfg.additions.volume_view_gain_cutoff_m3.get());
             assert!(map.is_traversable(v.cell) && df.cost_to(v.cell).is_some());
             let p = grid.center(grid.cell(v.cell));
             for w in &one[..k] {
@@ -1056,7 +1064,7 @@ mod tests {
         let cfg = Config::default();
         let (map, df) = half_scanned_room(&cfg);
         let grid = *map.grid();
-        let mut views = views_with_cutoff(cfg.volume_views.gain_cutoff_m3.get()).unwrap();
+        let mut views = views_with_cutoff(cfg.additions.volume_view_gain_cutoff_m3.get()).unwrap();
         let at = |v: &VolumeView| grid.center(grid.cell(v.cell));
         let open: Vec<VolumeView> = views.open(&map, &df).into_iter().map(|v| v.1).collect();
         let kept = views.thinned(&map, &df, 1.0, usize::MAX);
@@ -1234,7 +1242,7 @@ mod tests {
         let (map, df) = half_scanned_room(&cfg);
         assert_eq!(views_with_cutoff(1e6).unwrap().next(&map, &df), None);
         assert!(VolumeViews::new(&VolumeViewParams::from(&cfg)).is_some());
-        cfg.volume_views.enabled = false;
+        cfg.additions.volume_views = false;
         assert!(VolumeViews::new(&VolumeViewParams::from(&cfg)).is_none());
     }
 }

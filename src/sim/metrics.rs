@@ -359,12 +359,21 @@ pub fn frontiers_left(gt: &GroundTruth, observable: &ObservableSet, map: &Map) -
     }
 }
 
+/// The profile of a result row written before profiles existed: the only rules there were.
+fn default_profile_name() -> String {
+    crate::config::Profile::Tensorscout.name().to_string()
+}
+
 /// Everything `explore --json` prints.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RunResult {
     pub scene: String,
     pub scene_hash: String,
     pub planner: String,
+    /// The config's `profile` (`tensorscout` or `published`); `tensorscout` in a row written before
+    /// profiles existed.
+    #[serde(default = "default_profile_name")]
+    pub profile: String,
     pub seed: u64,
     pub spawn: crate::Pose2,
     pub termination: Termination,

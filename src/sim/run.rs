@@ -560,6 +560,7 @@ impl<'a> Simulation<'a> {
             scene: self.scene.name.clone(),
             scene_hash: self.scene.content_hash.clone(),
             planner: self.planner.name().to_string(),
+            profile: cfg.profile.name().to_string(),
             seed: cfg.seed,
             spawn: gt.spawn,
             termination,

@@ -338,6 +338,8 @@ pub struct TensorParams {
     pub tensor: TensorConfig,
     pub field: FieldConfig,
     pub greedy: GreedyConfig,
+    /// How the GREEDY hand-over gives frontiers up (`[additions]`).
+    pub visit_rules: crate::plan::VisitRules,
     /// `robot.max_speed_mps`.
     pub max_speed_mps: f64,
 }
@@ -348,6 +350,7 @@ impl From<&Config> for TensorParams {
             tensor: cfg.tensor.clone(),
             field: cfg.field.clone(),
             greedy: cfg.greedy.clone(),
+            visit_rules: (&cfg.additions).into(),
             max_speed_mps: cfg.robot.max_speed_mps,
         }
     }
@@ -371,7 +374,7 @@ impl Tensor {
             window: None,
             window_center: Point2::origin(),
             // TENSOR's hand-over keeps GREEDY as published: no volume views.
-            greedy: Greedy::new(&cfg.greedy, None),
+            greedy: Greedy::new(&cfg.greedy, cfg.visit_rules, None),
             mode: Mode::Field,
             current: Current::None,
             heading_override: None,

@@ -25,7 +25,7 @@ pub(super) struct Goal {
     /// Farthest index along `path` the robot has come, and the simulated time it got there.
     pub(super) best_progress: usize,
     pub(super) progress_s: f64,
-    /// Advection stopped bringing the robot along (`thp.advection_stall_s`): follow `path` itself.
+    /// Advection stopped bringing the robot along (`additions.advection_stall_s`): follow `path` itself.
     pub(super) direct: bool,
 }
 
@@ -125,9 +125,9 @@ impl Thp {
         if progress > goal.best_progress {
             goal.best_progress = progress;
             goal.progress_s = ctx.time_s;
-        } else if self.cfg.advection_stall_s > 0.0
+        } else if self.rules.advection_stall_s.get() > 0.0
             && !goal.direct
-            && ctx.time_s - goal.progress_s >= self.cfg.advection_stall_s
+            && ctx.time_s - goal.progress_s >= self.rules.advection_stall_s.get()
         {
             goal.direct = true;
             self.stats.advection_stalls.add(1.0);

@@ -12,16 +12,6 @@ pub(super) enum Choice {
     Drive,
 }
 
-/// Clearance beyond the robot radius an escape path keeps from known obstacles (the motion guard's
-/// margin), metres.
-pub(super) const ESCAPE_CLEAR_MARGIN_M: f64 = 0.0;
-
-/// How far a trapped robot looks for a cell it may enter (see `Thp::way_out`), metres.
-const WAY_OUT_M: f64 = 2.0;
-
-/// Escapes toward one target cell before the frontier there is given up.
-pub(super) const MAX_ESCAPES: u32 = 2;
-
 /// The cells the robot's centre has been in. An escape toward a frontier squeezes through inflated
 /// cells only beside them, back the way the robot came into its pocket. Through any physically
 /// clear gap, it took THP through doors narrower than the planners' inflation into rooms no planner
@@ -89,7 +79,8 @@ impl Thp {
                 aim,
                 cost,
             };
-            let near = (grid.center(grid.cell(aim)) - robot).norm_squared() <= near2;
+            let near = self.rules.blind_zone_step_back
+                && (grid.center(grid.cell(aim)) - robot).norm_squared() <= near2;
             if near && !self.visits.was_approached(aim) {
                 if nearest_near
                     .as_ref()
@@ -160,9 +151,10 @@ impl Thp {
             // Only frontiers in the blind zone are left: step back to see the floor there.
             let Some(f) = near else {
                 // Frontiers are left but none is reachable: trapped in a pocket? An escape toward
-                // a target that already failed `MAX_ESCAPES` times gives the frontier up there, so
-                // that one unreachable target cannot keep the robot trying until the run is stuck.
-                loop {
+                // a target that already failed `additions.escape_tries` times gives the frontier up
+                // there, so that one unreachable target cannot keep the robot trying until the run
+                // is stuck (no escapes at all with 0).
+                while self.rules.escape_tries > 0 {
                     let open_frontiers: Vec<usize> = segment_cells
                         .iter()
                         .flatten()
@@ -178,7 +170,7 @@ impl Thp {
                         start,
                         df,
                         &open_frontiers,
-                        ESCAPE_CLEAR_MARGIN_M,
+                        self.rules.escape_clearance_m.get(),
                         |i| trail.is_beside(&grid, i),
                     ) else {
                         break;
@@ -189,7 +181,7 @@ impl Thp {
                         .map_or(start, |c| grid.index(c));
                     let tries = self.escape_tries.entry(target).or_insert(0);
                     *tries += 1;
-                    if *tries > MAX_ESCAPES {
+                    if *tries > self.rules.escape_tries {
                         self.stats.escapes_given_up.add(1.0);
                         self.visits.give_up_around(&grid, target, open_frontiers);
                         continue;
@@ -203,49 +195,54 @@ impl Thp {
                         exact_arrival: false,
                     }));
                 }
-                // Nothing reachable is left: look at the frontiers seen through gaps too narrow to
-                // pass, each once, before calling the map done (shared with GREEDY).
-                if let Some(view) = distant_view(
-                    map,
-                    df,
-                    &segment_cells,
-                    |i| self.visits.is_unobservable(i),
-                    self.view_m,
-                ) {
-                    // Counted once per view: a view whose path went bad is chosen again on the
-                    // way to it, and each choice used to count it again.
-                    if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
-                        self.stats.distant_views.add(1.0);
+                // Nothing reachable is left: the end-of-run sequence (shared with GREEDY).
+                let (rules, view_m, params) = (self.rules.clone(), self.view_m, ctx.cfg);
+                let camera = &params.camera;
+                let ending = end_of_run(
+                    &rules,
+                    self,
+                    |thp| {
+                        let given_up = |i| thp.visits.is_unobservable(i);
+                        distant_view(map, df, &segment_cells, given_up, view_m)
+                    },
+                    |thp| thp.next_volume_view(ctx, costs, df),
+                    |thp| {
+                        !(thp.visits)
+                            .reopen_seeable(map, df, &segment_cells, camera, |_| false)
+                            .is_empty()
+                    },
+                );
+                return Ok(match ending {
+                    Ending::DistantView(view) => {
+                        // Counted once per view: a view whose path went bad is chosen again on
+                        // the way to it, and each choice used to count it again.
+                        if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
+                            self.stats.distant_views.add(1.0);
+                        }
+                        let visit = Visit {
+                            target: segment_cells[view.segment]
+                                .iter()
+                                .map(|&i| grid.cell(i))
+                                .collect(),
+                            aim: view.aim,
+                            near_view: true,
+                        };
+                        let path = df
+                            .path_to(&grid, view.viewpoint)
+                            .expect("reachable by construction");
+                        self.set_goal(ctx, visit, None, &path.cells);
+                        self.ledger.kind = GoalKind::DistantView;
+                        Choice::Drive
                     }
-                    let visit = Visit {
-                        target: segment_cells[view.segment]
-                            .iter()
-                            .map(|&i| grid.cell(i))
-                            .collect(),
-                        aim: view.aim,
-                        near_view: true,
-                    };
-                    let path = df
-                        .path_to(&grid, view.viewpoint)
-                        .expect("reachable by construction");
-                    self.set_goal(ctx, visit, None, &path.cells);
-                    self.ledger.kind = GoalKind::DistantView;
-                    return Ok(Choice::Drive);
-                }
-                // Then at the unknown volume no frontier shows, if on (shared with GREEDY).
-                if let Some(view) = self.next_volume_view(ctx, costs, df) {
-                    self.ledger.kind = GoalKind::VolumeView;
-                    self.mode.stop();
-                    let (action, _) = follow_to(&grid, df, view.cell, true, false);
-                    return Ok(Choice::Act(action));
-                }
-                let camera = &ctx.cfg.camera;
-                let reopened =
-                    (self.visits).reopen_seeable(map, df, &segment_cells, camera, |_| false);
-                if !reopened.is_empty() {
-                    return Ok(Choice::Act(Action::LookAround));
-                }
-                return Ok(Choice::Act(Action::Complete));
+                    Ending::VolumeView(view) => {
+                        self.ledger.kind = GoalKind::VolumeView;
+                        self.mode.stop();
+                        let (action, _) = follow_to(&grid, df, view.cell, true, false);
+                        Choice::Act(action)
+                    }
+                    Ending::Reopened => Choice::Act(Action::LookAround),
+                    Ending::Complete => Choice::Act(Action::Complete),
+                });
             };
             let visit = f.visit(&grid, &segment_cells, true);
             return Ok(self.blind_zone_goal(ctx, df, visit, None));
@@ -277,9 +274,9 @@ impl Thp {
             .expect("tour covers the nodes");
         let f = node.nearest_member(&fronts).clone();
         // A frontier in the blind zone around the robot is looked at before the robot drives away
-        // from it (`search.blind_zone_look_first_m`, shared with GREEDY).
+        // from it (`additions.blind_zone_look_first_m`, shared with GREEDY).
         if let Some(n) = &near {
-            if blind_zone_first(&ctx.cfg.search, f.cost) {
+            if blind_zone_first(&self.rules, f.cost) {
                 let visit = n.visit(&grid, &segment_cells, true);
                 return Ok(self.blind_zone_goal(ctx, df, visit, None));
             }
@@ -352,7 +349,10 @@ impl Thp {
             grid.index(here),
             f32::INFINITY,
         );
-        let reach = (WAY_OUT_M / grid.res).ceil() as i32;
+        if self.rules.escape_tries == 0 {
+            return Choice::Act(Action::LookAround);
+        }
+        let reach = (self.rules.way_out_m.get() / grid.res).ceil() as i32;
         let targets: Vec<usize> = (-reach..=reach)
             .flat_map(|dy| (-reach..=reach).map(move |dx| (dx, dy)))
             .filter_map(|(dx, dy)| {
@@ -365,7 +365,7 @@ impl Thp {
             grid.index(here),
             &stay,
             &targets,
-            ESCAPE_CLEAR_MARGIN_M,
+            self.rules.escape_clearance_m.get(),
             |_| true,
         ) else {
             return Choice::Act(Action::LookAround);

@@ -30,54 +30,45 @@
 //!    re-run only when the goal changes, the path is blocked by a newly seen obstacle, or the robot
 //!    or its pathline strays more than `thp.drift_m` from the path.
 //!
-//! Frontiers are visited with GREEDY's rules ([`super::frontier_visit`]): stop short and look, then
-//! from on top, then from a viewpoint from which the camera sees the floor beside the frontier; a
-//! frontier is given up only after a look that could have shown it. This is how this code reads the
-//! paper's "done after the robot has looked at it": a look from within the camera's blind zone shows
-//! nothing of the floor there. A frontier approached once
-//! stays a member of its group even inside the camera's blind zone around the robot, so its second
-//! approach comes while the robot is there ([`Thp::frontiers`] says why). The run is complete when
-//! no anchor and no reachable, observable frontier is left.
+//! Frontiers are visited with the rules GREEDY shares ([`super::frontier_visit`]). Under the
+//! `published` profile that is the paper's "done after the robot has looked at it": the robot stops
+//! `thp.view_distance_m` short of the frontier, turns once to look, and a frontier the look left
+//! open is done; so is one the robot failed to reach. The run is complete when no anchor and no
+//! reachable frontier is left. A frontier approached once stays a member of its group even inside
+//! the camera's blind zone around the robot, so its second approach (default profile) comes while
+//! the robot is there ([`Thp::frontiers`] says why).
 //!
 //! What a *visited* anchor is (room the paper leaves): one whose group holds no frontier in a plan.
 //!
 //! Control state: [`mode::Mode`] (idle, driving to a goal, blocked), with every change of it in
 //! `mode.rs`.
 //!
-//! Mechanisms the paper does not have, each a config key:
-//! - `thp.advection_stall_s` (on, 5 s): when advection has not brought the robot farther along its A*
-//!   path for that long, the robot follows the A* path itself to that goal (counted as
-//!   `advection_stalls`); pathlines around a wedge or a table can circle for good, and such runs ended
-//!   `stuck`.
-//! - `thp.look_when_blocked` (on): an attempt that could not move the robot at all (the motion guard
-//!   refused every move, typically in a doorway beside never-seen cells) is followed by a look around
-//!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not.
-//!   Without it the robot tried goal after goal from the same spot until the run ended `stuck`.
-//! - `thp.finish_group_first` (off): see [`tour`].
-//! - `search.blind_zone_look_first_m` (0: on, shared with GREEDY): a frontier in the camera's blind
-//!   zone around the robot is looked at, by a step back, before the robot drives to the tour's next
-//!   goal ([`blind_zone_first`]); left for later, it made the robot drive back across the plan.
-//!   The step back is kept until it is reached, seen or blocked, through new anchors too (the tour
-//!   is re-solved after it); re-chosen at every segment end, two such frontiers whose viewpoints lay
-//!   beside each other held the robot between them without a look until the run was `stuck`.
-//! - `volume_views.enabled` (on, shared with GREEDY): before `Complete`, the robot drives to each
-//!   place from which the camera would still see unknown volume that no frontier shows (the top of
-//!   the height band near walls, space over furniture; [`super::view_gain::VolumeViews`]), counted
-//!   as `volume_views`. A run that had reached every frontier left 5–8 % of the observable volume
-//!   unseen on real plans. On by default although it lengthens the path: the paper's goal is a
-//!   shorter path *at similar completeness*, and the benchmark's completeness is against what the
-//!   camera can observe, so GREEDY and THP both take the views and their paths compare at the same
-//!   ending (BENCHMARKS.md has both settings).
-//! - `thp.volume_view_tour` (on): those views are visited in the order of a fixed-start open TSP
-//!   from the robot over the open views, thinned to one per metre and solved again at every view
-//!   ([`Thp::next_volume_view`]), as Alg. 1 orders anchors. GREEDY's rule, the best gain per metre
-//!   one view at a time, made THP shuttle along corridors between views (60.5 m for 7 views on
-//!   `plan_0ae54bc5c4`, random start 2); with the tour THP drove 3.1 and 0.7 m less a run on the two
-//!   halves of the real plans, at completeness 0.0003 and 0.0015 higher (BENCHMARKS.md).
+//! Mechanisms the paper does not have, each a key of `[additions]` that the `published` profile
+//! switches off (`configs/default.toml` says why each exists and what it measured):
+//! - the frontier rules shared with GREEDY: `look_from_on_top`, `viewpoint_looks`,
+//!   `exact_arrival`, `approach_attempts` above 1;
+//! - `blind_zone_step_back`: a frontier in the camera's blind zone around the robot is looked at,
+//!   by a step back, before the robot drives to the tour's next goal ([`blind_zone_first`]). The
+//!   step back is kept until it is reached, seen or blocked, through new anchors too (the tour is
+//!   re-solved after it): re-chosen at every segment end, two such frontiers whose viewpoints lay
+//!   beside each other held the robot between them without a look until the run was `stuck`;
+//! - the end-of-run sequence shared with GREEDY ([`super::frontier_visit::end_of_run`]):
+//!   `distant_views`, `volume_views` (counted as `volume_views`) and `reopen_max`; with
+//!   `volume_view_tour` THP visits the views in the order of a fixed-start open TSP from the robot
+//!   over the open views, thinned to one per metre and solved again at every view
+//!   ([`Thp::next_volume_view`]), as Alg. 1 orders anchors;
+//! - `escape_tries`: when frontiers are left but none is reachable, or no cell around the robot
+//!   may be entered, the robot squeezes out through inflated cells only beside its own trail
+//!   ([`goals::Trail`]), back the way it came in (`escapes`); a target is given up after that many
+//!   tries (`escapes_given_up`);
+//! - `look_when_blocked`: an attempt that could not move the robot at all (the motion guard refused
+//!   every move, typically in a doorway beside never-seen cells) is followed by a look around
+//!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not;
+//! - `advection_stall_s`: when advection has not brought the robot farther along its A* path for
+//!   that long, the robot follows the A* path itself to that goal (`advection_stalls`).
 //!
-//! Not config keys, because they only bound failures: an escape from a pocket gives its target up
-//! after `MAX_ESCAPES` tries (`escapes_given_up`), and squeezes through inflated cells only beside
-//! the robot's own trail ([`goals::Trail`]), back the way it came in.
+//! Readings where the paper leaves room, in `[thp]` and the same in both profiles:
+//! `thp.finish_group_first` (off) and `thp.tour_start` (see [`tour`]), `thp.tour_costs`.
 //!
 //! Statistics: besides the counters of each stage, `path_m_*` split the path by why the robot was
 //! driving (see `PathLedger`), and `groups_left_unfinished` / `returns_to_unfinished` count tour
@@ -91,13 +82,14 @@
 //! path itself.
 
 use super::frontier_visit::{
-    blind_zone_first, blind_zone_viewpoint, distant_view, follow_to, FrontierVisits, Visit,
+    blind_zone_first, blind_zone_viewpoint, distant_view, end_of_run, follow_to, Ending,
+    FrontierVisits, Visit,
 };
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
 use super::view_gain::{VolumeViewParams, VolumeViews};
 use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
-use crate::config::{Config, FieldConfig, Grouping, ThpConfig, TourCosts, TourStart};
+use crate::config::{Additions, Config, FieldConfig, Grouping, ThpConfig, TourCosts, TourStart};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
 use crate::map::Map;
@@ -128,6 +120,8 @@ use mode::Mode;
 #[derive(Clone)]
 pub struct Thp {
     cfg: ThpConfig,
+    /// The rules no paper has (`[additions]`; the module doc lists THP's).
+    rules: Additions,
     field_cfg: FieldConfig,
     view_m: f64,
     near_unknown_m: f64,
@@ -223,6 +217,7 @@ impl Thp {
     pub fn new(params: &ThpParams) -> Self {
         Thp {
             cfg: params.thp.clone(),
+            rules: params.plan.additions.clone(),
             field_cfg: params.field.clone(),
             view_m: params.thp.view_distance_m,
             near_unknown_m: params.plan.search.near_unknown_radius_m,
@@ -235,7 +230,7 @@ impl Thp {
             new_anchors: false,
             tour: Vec::new(),
             tour_points: Vec::new(),
-            visits: FrontierVisits::default(),
+            visits: FrontierVisits::new((&params.plan.additions).into()),
             mode: Mode::Idle,
             action_from: Point2::origin(),
             tsp_ms: None,
@@ -392,8 +387,8 @@ impl Planner for Thp {
     }
 
     fn action_finished(&mut self, ctx: &PlanContext, reached: bool) {
-        // Without `thp.look_when_blocked`, every attempt counts as having moved the robot.
-        let moved = !self.cfg.look_when_blocked
+        // Without `additions.look_when_blocked`, every attempt counts as having moved the robot.
+        let moved = !self.rules.look_when_blocked
             || (ctx.pose.position() - self.action_from).norm() >= BLOCKED_MOVE_M;
         if let Some((visit, reached)) = self
             .mode
@@ -440,6 +435,7 @@ impl Planner for Thp {
                 ("tour_start_extra_m", s.tour_start_extra_m),
             ]
             .into_iter()
+            .chain(self.visits.stats())
             .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),
         )
     }

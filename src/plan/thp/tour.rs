@@ -1,6 +1,6 @@
 //! The online TSP over the groups (THP §3.3, Alg. 1, Eq. 6): where each tour starts, and the path
 //! costs between the groups' access cells. The volume views before `Complete` are ordered by the
-//! same kind of tour (`thp.volume_view_tour`).
+//! same kind of tour (`additions.volume_view_tour`).
 
 use super::*;
 
@@ -37,7 +37,7 @@ const VOLUME_VIEW_NODES_MAX: usize = 24;
 impl Thp {
     /// The next volume view to drive to, marked taken; `None` when views are off or none is open.
     ///
-    /// With `thp.volume_view_tour` (not in the paper) the open views, thinned to one per
+    /// With `additions.volume_view_tour` (not in the paper) the open views, thinned to one per
     /// [`VOLUME_VIEW_NODE_SPACING_M`], are ordered by a fixed-start open TSP from the robot over
     /// their path costs, as Alg. 1 orders anchors, and the first is taken; the tour is solved again
     /// at every view, since each view changes what the others would still show. Without it, the
@@ -50,7 +50,7 @@ impl Thp {
     ) -> Option<super::super::view_gain::VolumeView> {
         let grid = *ctx.map.grid();
         let mut views = self.volume_views.take()?;
-        let next = if self.cfg.volume_view_tour {
+        let next = if self.rules.volume_view_tour {
             let open = views.thinned(
                 ctx.map,
                 df,
