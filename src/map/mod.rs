@@ -3,6 +3,7 @@
 mod column_sweep;
 pub(crate) mod layers;
 pub(crate) mod occupancy;
+pub(crate) mod sight;
 
 pub use layers::{CellState, FrontierSegment, Layers};
 pub use occupancy::{LogOdds, ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};

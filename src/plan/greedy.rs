@@ -12,24 +12,24 @@
 //! The run is complete when no reachable frontier is left.
 //!
 //! The default profile adds the rules of `[additions]` (none in Yamauchi's method; see
-//! [`super::frontier_visit`]): a second approach and a look from on top
+//! [`super::frontier`]): a second approach and a look from on top
 //! (`look_from_on_top`), looks from viewpoints chosen to see the floor beside a frontier
 //! (`viewpoint_looks`), a step back to see a frontier in the camera's blind zone before driving
-//! away (`blind_zone_step_back`, [`super::frontier_visit::blind_zone_first`]), and the end-of-run
-//! sequence ([`super::frontier_visit::end_of_run`]): a look at each frontier seen through a gap too
+//! away (`blind_zone_step_back`, [`super::frontier::blind_zone_first`]), and the end-of-run
+//! sequence ([`super::frontier::end_of_run`]): a look at each frontier seen through a gap too
 //! narrow to pass (`distant_views`), views of the unknown volume no frontier shows
-//! (`volume_views`, [`super::view_gain::VolumeViews`]) and the reopening of given-up frontiers
+//! (`volume_views`, [`super::frontier::VolumeViews`]) and the reopening of given-up frontiers
 //! the camera would still see (`reopen_max`).
 //!
 //! Statistics: `path_m_frontier`, `path_m_blind_zone`, `path_m_distant_view` and
 //! `path_m_volume_view` split the path by the goal the robot was driving to (a look from a viewpoint
 //! chosen for a frontier counts under `frontier`), to compare with THP's split of the same names.
 
-use super::frontier_visit::{
+use super::frontier::VolumeViews;
+use super::frontier::{
     blind_zone_first, blind_zone_viewpoint, distant_view, end_of_run, follow_to, Ending,
     FrontierVisits, Visit, VisitRules,
 };
-use super::view_gain::VolumeViews;
 use super::{Action, Count, Odometer, Plan, PlanContext, Planner};
 use crate::config::GreedyConfig;
 use crate::Result;

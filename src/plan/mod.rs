@@ -4,7 +4,7 @@
 //! a [`PlanContext`] and answers with an [`Action`]; the simulator's one motion executor carries it
 //! out, so that comparisons between planners are fair.
 
-pub(crate) mod frontier_visit;
+pub(crate) mod frontier;
 pub(crate) mod greedy;
 pub(crate) mod nbv;
 pub mod search;
@@ -18,7 +18,7 @@ use crate::field::TensorField;
 use crate::grid::Cell;
 use crate::map::Map;
 use crate::{Pose2, Result};
-pub use frontier_visit::VisitRules;
+pub use frontier::VisitRules;
 use nalgebra::Point2;
 use search::Search;
 use std::collections::BTreeMap;
@@ -478,7 +478,7 @@ impl PlannerKind {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(
                 &cfg.greedy,
                 (&cfg.additions).into(),
-                view_gain::VolumeViews::new(&cfg.into()),
+                frontier::VolumeViews::new(&cfg.into()),
             ))),
             PlannerKind::Thp => Ok(Box::new(thp::Thp::new(&thp::ThpParams::from(cfg)))),
             PlannerKind::Tensor => Ok(Box::new(tensor::Tensor::new(&cfg.into()))),

@@ -34,18 +34,18 @@
 //! - Before answering `Complete`, every frontier segment is tried as a viewpoint, so that a random
 //!   sampler's miss cannot end the run early. The robot aims at the segment's least-cost cell not
 //!   given up and looks at it from a cell from which the camera sees the floor beside it
-//!   ([`super::frontier_visit::FrontierVisits::sighted_viewpoint`]), else from the cell itself:
+//!   ([`super::frontier::FrontierVisits::sighted_viewpoint`]), else from the cell itself:
 //!   from on top, the camera's blind zone hides that floor, and the frontier was left for good. A
-//!   cell is given up by GREEDY's and THP's rules ([`super::frontier_visit::FrontierVisits`]):
+//!   cell is given up by GREEDY's and THP's rules ([`super::frontier::FrontierVisits`]):
 //!   after a look from where the camera could see it, a second look, or two failed approaches;
 //!   the next viewpoint for it is chosen away from those looked from. (With every cell
 //!   within the sampling radius of a reached anchor given up instead, 29 of 99 runs on real plans
 //!   ended `complete` with frontiers left; 15 with these rules, BENCHMARKS.md, "Columns known only
 //!   above the camera".) Then each frontier seen through a gap too narrow to pass is looked at
-//!   once from a reachable cell in line of sight ([`super::frontier_visit::distant_view`], shared
+//!   once from a reachable cell in line of sight ([`super::frontier::distant_view`], shared
 //!   with GREEDY and THP).
 
-use super::frontier_visit::{
+use super::frontier::{
     distant_view, end_of_run, follow_to, line_of_sight, Ending, FrontierVisits, Visit,
 };
 use super::tsp::{self, CostMatrix, GaParams};

@@ -45,6 +45,49 @@ impl Trail {
     }
 }
 
+/// Where THP's next goal comes from. [`Thp::choose_goal_from`] asks each in the order of
+/// [`GOAL_SOURCES`]; the first that answers gives the goal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum GoalSource {
+    /// A frontier in the camera's blind zone, by a step back (`additions.blind_zone_step_back`).
+    BlindZone,
+    /// A look from a viewpoint at the tour's frontier, when earlier looks left it open
+    /// (`additions.viewpoint_looks`).
+    Viewpoint,
+    /// The tour's frontier: the least-cost frontier of the tour's first group (Alg. 1–2).
+    Tour,
+    /// An escape from a pocket when frontiers are left but none is reachable
+    /// (`additions.escape_tries`).
+    Escape,
+    /// The end-of-run sequence ([`crate::plan::frontier::end_of_run`]), then `Complete`.
+    EndOfRun,
+}
+
+/// The order in which the goal sources are asked.
+pub(super) const GOAL_SOURCES: [GoalSource; 5] = [
+    GoalSource::BlindZone,
+    GoalSource::Viewpoint,
+    GoalSource::Tour,
+    GoalSource::Escape,
+    GoalSource::EndOfRun,
+];
+
+/// What the goal sources of one planning step read.
+struct GoalInputs<'a> {
+    /// The robot's search cell, and the step costs and distance field from it.
+    start: usize,
+    costs: &'a plan::StepCosts,
+    df: &'a DistanceField,
+    /// The nearest frontier in the camera's blind zone, if any (and the step back is on).
+    near: Option<Frontier>,
+    /// The cells of every frontier segment.
+    segment_cells: Vec<Vec<usize>>,
+    /// The nodes the tour routes over.
+    nodes: Vec<Node>,
+    /// The tour's first node and its least-cost frontier; `None` without a node.
+    tour_next: Option<(usize, Frontier)>,
+}
+
 impl Thp {
     /// The reachable, observable frontiers and, separately, the nearest other one inside the camera's
     /// blind zone around the robot, with path costs from the robot's distance field.
@@ -116,7 +159,8 @@ impl Thp {
     }
 
     /// [`Thp::choose_goal`] once the step costs and the robot's distance field (from `start`) are
-    /// known.
+    /// known: plans the tour (Alg. 1–2), then asks the goal sources in the order of
+    /// [`GOAL_SOURCES`] until one answers.
     pub(super) fn choose_goal_from(
         &mut self,
         ctx: &mut PlanContext,
@@ -126,8 +170,7 @@ impl Thp {
     ) -> Result<Choice> {
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
-        let map = ctx.map;
-        let (fronts, near, segment_cells) = self.frontiers(map, df, robot);
+        let (fronts, near, segment_cells) = self.frontiers(ctx.map, df, robot);
         let nodes = match self.cfg.grouping {
             Grouping::Anchors => self.group_by_anchors(&fronts, robot),
             Grouping::None => fronts
@@ -143,109 +186,48 @@ impl Thp {
                 kmeans_nodes(&fronts, &segment_cells, grid.res, self.cfg.kmeans_cluster_m)
             }
         };
+        let tour_next = self.plan_tour(ctx, costs, df, &nodes, &fronts);
+        let at = GoalInputs {
+            start,
+            costs,
+            df,
+            near,
+            segment_cells,
+            nodes,
+            tour_next,
+        };
+        for source in GOAL_SOURCES {
+            let choice = match source {
+                GoalSource::BlindZone => self.blind_zone_source(ctx, &at),
+                GoalSource::Viewpoint => self.viewpoint_source(ctx, &at),
+                GoalSource::Tour => self.tour_source(ctx, &at),
+                GoalSource::Escape => self.escape_source(ctx, &at),
+                GoalSource::EndOfRun => Some(self.end_of_run_source(ctx, &at)),
+            };
+            if let Some(choice) = choice {
+                return Ok(choice);
+            }
+        }
+        unreachable!("the end of the run always answers")
+    }
+
+    /// Alg. 1: re-solves the tour over `nodes` when new anchors appeared (or at every choice
+    /// without anchor grouping), else follows it, dropping visited anchors. The tour's first node
+    /// and its least-cost frontier; `None` (and no tour) when there is no node.
+    fn plan_tour(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &plan::StepCosts,
+        df: &DistanceField,
+        nodes: &[Node],
+        fronts: &[Frontier],
+    ) -> Option<(usize, Frontier)> {
         if nodes.is_empty() {
             // No node to route over: `P*` (if any) has nothing to re-order.
             self.new_anchors = false;
             self.tour.clear();
             self.tour_points.clear();
-            // Only frontiers in the blind zone are left: step back to see the floor there.
-            let Some(f) = near else {
-                // Frontiers are left but none is reachable: trapped in a pocket? An escape toward
-                // a target that already failed `additions.escape_tries` times gives the frontier up
-                // there, so that one unreachable target cannot keep the robot trying until the run
-                // is stuck (no escapes at all with 0).
-                while self.rules.escape_tries > 0 {
-                    let open_frontiers: Vec<usize> = segment_cells
-                        .iter()
-                        .flatten()
-                        .copied()
-                        .filter(|&i| !self.visits.is_unobservable(i))
-                        .collect();
-                    if open_frontiers.is_empty() {
-                        break;
-                    }
-                    let trail = &self.trail;
-                    let Some(path) = plan::escape_path(
-                        ctx,
-                        start,
-                        df,
-                        &open_frontiers,
-                        self.rules.escape_clearance_m.get(),
-                        |i| trail.is_beside(&grid, i),
-                    ) else {
-                        break;
-                    };
-                    let target = path
-                        .last()
-                        .and_then(|p| grid.cell_of(*p))
-                        .map_or(start, |c| grid.index(c));
-                    let tries = self.escape_tries.entry(target).or_insert(0);
-                    *tries += 1;
-                    if *tries > self.rules.escape_tries {
-                        self.stats.escapes_given_up.add(1.0);
-                        self.visits.give_up_around(&grid, target, open_frontiers);
-                        continue;
-                    }
-                    self.stats.escapes.add(1.0);
-                    self.ledger.kind = GoalKind::Escape;
-                    self.mode.stop();
-                    return Ok(Choice::Act(Action::Follow {
-                        path,
-                        look_on_arrival: false,
-                        exact_arrival: false,
-                    }));
-                }
-                // Nothing reachable is left: the end-of-run sequence (shared with GREEDY).
-                let (rules, view_m, params) = (self.rules.clone(), self.view_m, ctx.cfg);
-                let camera = &params.camera;
-                let ending = end_of_run(
-                    &rules,
-                    self,
-                    |thp| {
-                        let given_up = |i| thp.visits.is_unobservable(i);
-                        distant_view(map, df, &segment_cells, given_up, view_m)
-                    },
-                    |thp| thp.next_volume_view(ctx, costs, df),
-                    |thp| {
-                        !(thp.visits)
-                            .reopen_seeable(map, df, &segment_cells, camera, |_| false)
-                            .is_empty()
-                    },
-                );
-                return Ok(match ending {
-                    Ending::DistantView(view) => {
-                        // Counted once per view: a view whose path went bad is chosen again on
-                        // the way to it, and each choice used to count it again.
-                        if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
-                            self.stats.distant_views.add(1.0);
-                        }
-                        let visit = Visit {
-                            target: segment_cells[view.segment]
-                                .iter()
-                                .map(|&i| grid.cell(i))
-                                .collect(),
-                            aim: view.aim,
-                            near_view: true,
-                        };
-                        let path = df
-                            .path_to(&grid, view.viewpoint)
-                            .expect("reachable by construction");
-                        self.set_goal(ctx, visit, None, &path.cells);
-                        self.ledger.kind = GoalKind::DistantView;
-                        Choice::Drive
-                    }
-                    Ending::VolumeView(view) => {
-                        self.ledger.kind = GoalKind::VolumeView;
-                        self.mode.stop();
-                        let (action, _) = follow_to(&grid, df, view.cell, true, false);
-                        Choice::Act(action)
-                    }
-                    Ending::Reopened => Choice::Act(Action::LookAround),
-                    Ending::Complete => Choice::Act(Action::Complete),
-                });
-            };
-            let visit = f.visit(&grid, &segment_cells, true);
-            return Ok(self.blind_zone_goal(ctx, df, visit, None));
+            return None;
         }
         let resolve = match self.cfg.grouping {
             Grouping::Anchors => {
@@ -254,7 +236,7 @@ impl Thp {
             Grouping::None | Grouping::Kmeans => true,
         };
         if resolve {
-            self.solve_tour(ctx, costs, df, &nodes, &fronts);
+            self.solve_tour(ctx, costs, df, nodes, fronts);
         } else {
             // Follow the tour: drop visited anchors, keep the order.
             let keep: Vec<(usize, Point2<f64>)> = self
@@ -272,63 +254,188 @@ impl Thp {
             .iter()
             .find(|n| n.key == first)
             .expect("tour covers the nodes");
-        let f = node.nearest_member(&fronts).clone();
-        // A frontier in the blind zone around the robot is looked at before the robot drives away
-        // from it (`additions.blind_zone_look_first_m`, shared with GREEDY).
-        if let Some(n) = &near {
-            if blind_zone_first(&self.rules, f.cost) {
-                let visit = n.visit(&grid, &segment_cells, true);
-                return Ok(self.blind_zone_goal(ctx, df, visit, None));
+        Some((first, node.nearest_member(fronts).clone()))
+    }
+
+    /// A frontier in the blind zone around the robot, by a step back to see the floor there: before
+    /// the robot drives away to the tour's frontier (`additions.blind_zone_look_first_m`, shared
+    /// with GREEDY), and whenever no tour is left.
+    fn blind_zone_source(&mut self, ctx: &PlanContext, at: &GoalInputs) -> Option<Choice> {
+        let near = at.near.as_ref()?;
+        if let Some((_, f)) = &at.tour_next {
+            if !blind_zone_first(&self.rules, f.cost) {
+                return None;
             }
         }
-        let visit = f.visit(&grid, &segment_cells, false);
-        // A look from on top or from within the blind zone left it: next from where the camera
-        // sees the floor beside it, if anywhere does.
-        if self.visits.needs_viewpoint(f.aim) {
-            let mut view = f.visit(&grid, &segment_cells, true);
-            view.target
-                .retain(|c| self.visits.needs_viewpoint(grid.index(*c)));
-            match self
-                .visits
-                .sighted_viewpoint(map, df, f.aim, self.view_m, &ctx.cfg.camera)
-            {
-                Some(v) => {
-                    let path = df.path_to(&grid, v).expect("reachable by construction");
-                    self.set_goal(ctx, view, Some(first), &path.cells);
-                    return Ok(Choice::Drive);
-                }
-                None => self.visits.no_viewpoint(&grid, &view),
-            }
+        let visit = near.visit(ctx.map.grid(), &at.segment_cells, true);
+        Some(self.blind_zone_goal(ctx, at.df, visit, None))
+    }
+
+    /// The tour's frontier, when a look from on top or from within the blind zone left it open: a
+    /// look from where the camera sees the floor beside it, if anywhere does.
+    fn viewpoint_source(&mut self, ctx: &PlanContext, at: &GoalInputs) -> Option<Choice> {
+        let (first, f) = at.tour_next.as_ref()?;
+        if !self.visits.needs_viewpoint(f.aim) {
+            return None;
         }
+        let grid = *ctx.map.grid();
+        let mut view = f.visit(&grid, &at.segment_cells, true);
+        view.target
+            .retain(|c| self.visits.needs_viewpoint(grid.index(*c)));
+        let seen_from =
+            (self.visits).sighted_viewpoint(ctx.map, at.df, f.aim, self.view_m, &ctx.cfg.camera);
+        let Some(v) = seen_from else {
+            self.visits.no_viewpoint(&grid, &view);
+            return None;
+        };
+        let path = at.df.path_to(&grid, v).expect("reachable by construction");
+        self.set_goal(ctx, view, Some(*first), &path.cells);
+        Some(Choice::Drive)
+    }
+
+    /// The tour's frontier (Alg. 1–2): the current A* path if the goal did not change, else a new
+    /// one, cut short to look from `view_distance_m`.
+    fn tour_source(&mut self, ctx: &mut PlanContext, at: &GoalInputs) -> Option<Choice> {
+        let (first, f) = at.tour_next.as_ref()?;
+        let (first, grid) = (*first, *ctx.map.grid());
+        let visit = f.visit(&grid, &at.segment_cells, false);
         // Keep the current A* path if the goal did not change.
         if let Some(g) = self.mode.goal_mut() {
             if g.visit.aim == visit.aim && !g.stale {
                 g.visit = visit;
                 g.tour_node = Some(first);
-                return Ok(Choice::Drive);
+                return Some(Choice::Drive);
             }
         }
         // A* calls by cause, for the advection claim (§3.5): a new goal, or the same goal again.
         let same_goal = self.mode.goal().is_some_and(|g| g.visit.aim == visit.aim);
         if !same_goal {
-            self.note_tour_goal(first, |k| nodes.iter().any(|n| n.key == k));
+            self.note_tour_goal(first, |k| at.nodes.iter().any(|n| n.key == k));
         }
         if same_goal {
             self.stats.astar_same_goal.add(1.0);
         } else {
             self.stats.astar_new_goal.add(1.0);
         }
-        let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), start, f.aim) else {
+        let costs = at.costs;
+        let Some(path) = ctx.search.astar(&grid, |i| costs.get(i), at.start, f.aim) else {
             // Reachable in the distance field, so A* finds it too; be safe all the same.
             self.visits.finished_in(ctx, &visit, false);
-            return Ok(Choice::Act(Action::LookAround));
+            return Some(Choice::Act(Action::LookAround));
         };
         let cells = self
             .visits
             .cut_short(&grid, &path.cells, f.aim, self.view_m)
             .to_vec();
         self.set_goal(ctx, visit, Some(first), &cells);
-        Ok(Choice::Drive)
+        Some(Choice::Drive)
+    }
+
+    /// Frontiers are left but none is reachable: trapped in a pocket? An escape toward a target
+    /// that already failed `additions.escape_tries` times gives the frontier up there, so that one
+    /// unreachable target cannot keep the robot trying until the run is stuck (no escapes at all
+    /// with 0). Only without a tour.
+    fn escape_source(&mut self, ctx: &mut PlanContext, at: &GoalInputs) -> Option<Choice> {
+        if at.tour_next.is_some() {
+            return None;
+        }
+        let grid = *ctx.map.grid();
+        let (start, df, segment_cells) = (at.start, at.df, &at.segment_cells);
+        while self.rules.escape_tries > 0 {
+            let open_frontiers: Vec<usize> = segment_cells
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|&i| !self.visits.is_unobservable(i))
+                .collect();
+            if open_frontiers.is_empty() {
+                break;
+            }
+            let trail = &self.trail;
+            let Some(path) = plan::escape_path(
+                ctx,
+                start,
+                df,
+                &open_frontiers,
+                self.rules.escape_clearance_m.get(),
+                |i| trail.is_beside(&grid, i),
+            ) else {
+                break;
+            };
+            let target = path
+                .last()
+                .and_then(|p| grid.cell_of(*p))
+                .map_or(start, |c| grid.index(c));
+            let tries = self.escape_tries.entry(target).or_insert(0);
+            *tries += 1;
+            if *tries > self.rules.escape_tries {
+                self.stats.escapes_given_up.add(1.0);
+                self.visits.give_up_around(&grid, target, open_frontiers);
+                continue;
+            }
+            self.stats.escapes.add(1.0);
+            self.ledger.kind = GoalKind::Escape;
+            self.mode.stop();
+            return Some(Choice::Act(Action::Follow {
+                path,
+                look_on_arrival: false,
+                exact_arrival: false,
+            }));
+        }
+        None
+    }
+
+    /// Nothing reachable is left: the end-of-run sequence (shared with GREEDY).
+    fn end_of_run_source(&mut self, ctx: &mut PlanContext, at: &GoalInputs) -> Choice {
+        let (map, grid, df, costs) = (ctx.map, *ctx.map.grid(), at.df, at.costs);
+        let segment_cells = &at.segment_cells;
+        let (rules, view_m, params) = (self.rules.clone(), self.view_m, ctx.cfg);
+        let camera = &params.camera;
+        let ending = end_of_run(
+            &rules,
+            self,
+            |thp| {
+                let given_up = |i| thp.visits.is_unobservable(i);
+                distant_view(map, df, &segment_cells, given_up, view_m)
+            },
+            |thp| thp.next_volume_view(ctx, costs, df),
+            |thp| {
+                !(thp.visits)
+                    .reopen_seeable(map, df, &segment_cells, camera, |_| false)
+                    .is_empty()
+            },
+        );
+        match ending {
+            Ending::DistantView(view) => {
+                // Counted once per view: a view whose path went bad is chosen again on
+                // the way to it, and each choice used to count it again.
+                if self.mode.goal().is_none_or(|g| g.visit.aim != view.aim) {
+                    self.stats.distant_views.add(1.0);
+                }
+                let visit = Visit {
+                    target: segment_cells[view.segment]
+                        .iter()
+                        .map(|&i| grid.cell(i))
+                        .collect(),
+                    aim: view.aim,
+                    near_view: true,
+                };
+                let path = df
+                    .path_to(&grid, view.viewpoint)
+                    .expect("reachable by construction");
+                self.set_goal(ctx, visit, None, &path.cells);
+                self.ledger.kind = GoalKind::DistantView;
+                Choice::Drive
+            }
+            Ending::VolumeView(view) => {
+                self.ledger.kind = GoalKind::VolumeView;
+                self.mode.stop();
+                let (action, _) = follow_to(&grid, df, view.cell, true, false);
+                Choice::Act(action)
+            }
+            Ending::Reopened => Choice::Act(Action::LookAround),
+            Ending::Complete => Choice::Act(Action::Complete),
+        }
     }
 
     /// For a robot trapped where no cell within two robot radii may be entered (a back-off took it

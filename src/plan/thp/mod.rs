@@ -30,7 +30,7 @@
 //!    re-run only when the goal changes, the path is blocked by a newly seen obstacle, or the robot
 //!    or its pathline strays more than `thp.drift_m` from the path.
 //!
-//! Frontiers are visited with the rules GREEDY shares ([`super::frontier_visit`]). Under the
+//! Frontiers are visited with the rules GREEDY shares ([`super::frontier`]). Under the
 //! `published` profile that is the paper's "done after the robot has looked at it": the robot stops
 //! `thp.view_distance_m` short of the frontier, turns once to look, and a frontier the look left
 //! open is done; so is one the robot failed to reach. The run is complete when no anchor and no
@@ -52,7 +52,7 @@
 //!   step back is kept until it is reached, seen or blocked, through new anchors too (the tour is
 //!   re-solved after it): re-chosen at every segment end, two such frontiers whose viewpoints lay
 //!   beside each other held the robot between them without a look until the run was `stuck`;
-//! - the end-of-run sequence shared with GREEDY ([`super::frontier_visit::end_of_run`]):
+//! - the end-of-run sequence shared with GREEDY ([`super::frontier::end_of_run`]):
 //!   `distant_views`, `volume_views` (counted as `volume_views`) and `reopen_max`; with
 //!   `volume_view_tour` THP visits the views in the order of a fixed-start open TSP from the robot
 //!   over the open views, thinned to one per metre and solved again at every view
@@ -81,13 +81,13 @@
 //! clusters, re-solving the TSP at every goal choice (Fig. 8); `advection = false` follows the A*
 //! path itself.
 
-use super::frontier_visit::{
+use super::frontier::{
     blind_zone_first, blind_zone_viewpoint, distant_view, end_of_run, follow_to, Ending,
     FrontierVisits, Visit,
 };
+use super::frontier::{VolumeViewParams, VolumeViews};
 use super::search::{DistanceField, Search};
 use super::tsp::{self, CostMatrix};
-use super::view_gain::{VolumeViewParams, VolumeViews};
 use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
 use crate::config::{Additions, Config, FieldConfig, Grouping, ThpConfig, TourCosts, TourStart};
 use crate::field::{StopReason, TensorField};

@@ -47,7 +47,7 @@ impl Thp {
         ctx: &mut PlanContext,
         costs: &plan::StepCosts,
         df: &DistanceField,
-    ) -> Option<super::super::view_gain::VolumeView> {
+    ) -> Option<super::super::frontier::VolumeView> {
         let grid = *ctx.map.grid();
         let mut views = self.volume_views.take()?;
         let next = if self.rules.volume_view_tour {
