@@ -23,6 +23,33 @@ pub trait Sink {
     fn finish(&mut self, _result: &RunResult) {}
 }
 
+/// The run log, the live server, or both: every message is built once and goes to each.
+#[derive(Default)]
+pub struct Sinks {
+    pub log: Option<super::RunLog>,
+    pub live: Option<super::LiveServer>,
+}
+
+impl Sink for Sinks {
+    fn put(&mut self, topic: &'static Topic, time_ns: u64, message: Vec<u8>) {
+        if let Some(live) = &self.live {
+            live.publish(topic, time_ns, &message);
+        }
+        if let Some(log) = &mut self.log {
+            log.put(topic, time_ns, message);
+        }
+    }
+
+    fn finish(&mut self, result: &RunResult) {
+        if let Some(log) = &mut self.log {
+            log.finish(result);
+        }
+        if let Some(live) = &mut self.live {
+            live.finish(result);
+        }
+    }
+}
+
 /// An [`Observer`] that builds every topic's messages at the configured rates.
 pub struct Recorder<S: Sink> {
     pub sink: S,
