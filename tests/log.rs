@@ -482,6 +482,15 @@ fn rerender_depth(log: &Path, lag_steps: u64) -> Agreement {
         }
     }
 
+    // Each map key frame has the pose it was integrated at (what `replay --render` draws with it).
+    for m in contents.topic("/map/grid") {
+        assert!(
+            poses.contains_key(&m.log_time_ns),
+            "no /tf at the grid of {} ns",
+            m.log_time_ns
+        );
+    }
+
     let camera = DepthCamera::new(&cfg.camera);
     let raster = MeshRaster::new(&scene.mesh).unwrap();
     let bvh = MeshBvh::new(&scene.mesh).unwrap();

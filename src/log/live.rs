@@ -325,11 +325,14 @@ fn greeting(session: &str) -> [String; 2] {
 }
 
 /// The handshake, answering with the Foxglove subprotocol when the client offers it.
+// The callback's error type is tungstenite's (an HTTP response), not ours to shrink.
+#[allow(clippy::result_large_err)]
 fn handshake(stream: TcpStream) -> Option<WebSocket<TcpStream>> {
     use tungstenite::handshake::server::{Request, Response};
     use tungstenite::handshake::HandshakeError;
     stream.set_nonblocking(false).ok()?;
     stream.set_read_timeout(Some(HANDSHAKE)).ok()?;
+    stream.set_write_timeout(Some(HANDSHAKE)).ok()?;
     let _ = stream.set_nodelay(true);
     let callback = |req: &Request, mut resp: Response| {
         let offered = req
@@ -455,6 +458,9 @@ fn pump(
     let mut blocked = false;
     let mut closing_since: Option<Instant> = None;
     loop {
+        if shared.stop.load(Ordering::SeqCst) {
+            closing_since.get_or_insert_with(Instant::now);
+        }
         loop {
             match ws.read() {
                 Ok(Message::Text(t)) => on_client_text(t.as_str(), shared, id),
@@ -492,9 +498,6 @@ fn pump(
                 return;
             }
         };
-        if shared.stop.load(Ordering::SeqCst) {
-            closing_since.get_or_insert_with(Instant::now);
-        }
         let mut next = Some(first);
         let mut batch = 0;
         while let Some(out) = next {
@@ -517,14 +520,19 @@ fn pump(
                     Message::text(t)
                 }
             };
-            let binary = msg.is_binary();
+            let data = msg.is_binary();
             match ws.write(msg) {
                 Ok(()) => {}
                 // Kept in the write buffer, to go out once the socket drains.
                 Err(e) if would_block(&e) => blocked = true,
-                Err(_) => return,
+                Err(_) => {
+                    if data {
+                        counters.dropped.fetch_add(1, Ordering::Relaxed);
+                    }
+                    return;
+                }
             }
-            if binary {
+            if data {
                 counters.sent.fetch_add(1, Ordering::Relaxed);
             }
             batch += 1;
