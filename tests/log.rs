@@ -79,9 +79,10 @@ fn log_replays_verifies_and_is_never_overwritten() {
     assert_eq!(s["result"]["completeness"], result["completeness"]);
     assert_eq!(s["complete"], true);
     assert_eq!(s["chunks_lost"], 0);
-    // One pose and one metrics message per step; the last milestone is the end of the run.
+    // One pose per step and the start pose; one metrics message per step; the last milestone is
+    // the end of the run.
     let steps = result["steps"].as_u64().unwrap();
-    assert_eq!(s["messages"]["/robot/pose"], steps);
+    assert_eq!(s["messages"]["/robot/pose"], steps + 1);
     assert_eq!(s["messages"]["/metrics"], steps);
     assert_eq!(
         s["messages"]["/plan/path"],
@@ -136,7 +137,8 @@ fn log_replays_verifies_and_is_never_overwritten() {
 
     python_check(&log, &s["messages"]);
 
-    // Pictures: one frame per 10 s of the run (key frames start at the first step) and an overview.
+    // Pictures: one frame per 10 s of the run, the start included (the first key frame is the
+    // first depth frame's, at t = 0), and an overview.
     let pics = dir.path().join("pics");
     let r = replay(&log, &["--render", pics.to_str().unwrap(), "--every", "10"]);
     assert!(r.status.success(), "{}", stderr(&r));
@@ -151,7 +153,7 @@ fn log_replays_verifies_and_is_never_overwritten() {
                 .starts_with("frame_")
         })
         .count();
-    assert_eq!(frames, (sim_time / 10.0).floor() as usize);
+    assert_eq!(frames, (sim_time / 10.0).floor() as usize + 1);
     assert!(pics.join("overview.png").is_file());
 }
 
@@ -352,7 +354,10 @@ fn interrupted_log_verifies_up_to_its_end() {
     let s = json(&s);
     assert_eq!(s["complete"], true);
     assert_eq!(s["result"]["termination"], "interrupted");
-    assert_eq!(s["messages"]["/robot/pose"], result["steps"]);
+    assert_eq!(
+        s["messages"]["/robot/pose"],
+        result["steps"].as_u64().unwrap() + 1
+    );
     // The re-run stops where the interrupted run stopped, and says so.
     let v = replay(&log, &["--verify"]);
     assert!(v.status.success(), "{}", stderr(&v));
@@ -383,4 +388,199 @@ fn bad_log_config_is_a_usage_error() {
         "{}",
         stderr(&o)
     );
+}
+
+/// How logged depth frames compare with frames re-rendered at a logged pose.
+#[derive(Debug, Default)]
+struct Agreement {
+    frames: usize,
+    pixels: usize,
+    /// Pixels off by more than 1 mm next to a depth jump (an object's outline).
+    silhouette_off: usize,
+    /// Pixels off by more than 1 mm anywhere else.
+    off: usize,
+}
+
+/// Whether pixel `i` of a `w`-wide depth image borders a jump of more than 10 cm (or a pixel with
+/// or without a return where it has the other): where the outline of an object falls.
+fn on_silhouette(depth: &[f32], w: usize, i: usize) -> bool {
+    let (x, y, h) = ((i % w) as i64, (i / w) as i64, (depth.len() / w) as i64);
+    let d = depth[i];
+    (-1..=1).any(|dy| {
+        (-1..=1).any(|dx| {
+            let (nx, ny) = (x + dx, y + dy);
+            (0..w as i64).contains(&nx) && (0..h).contains(&ny) && {
+                let n = depth[(ny * w as i64 + nx) as usize];
+                (n == 0.0) != (d == 0.0) || (n - d).abs() > 0.1
+            }
+        })
+    })
+}
+
+/// Re-renders every `/camera/depth` frame of `log` with the library's renderer (the one the run's
+/// config names) at the `/tf` pose stamped `lag_steps` steps before the frame (0: the same stamp),
+/// and counts the pixels that differ by more than 1 mm. Also checks that every message's own
+/// stamps equal its log time.
+fn rerender_depth(log: &Path, lag_steps: u64) -> Agreement {
+    use tensorscout::config::DepthRenderer;
+    use tensorscout::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
+    let contents = tensorscout::log::read_log(log).unwrap();
+    let id = contents.identity.as_ref().unwrap();
+    let cfg: tensorscout::Config = toml::from_str(&id.config_toml).unwrap();
+    let scene = tensorscout::scene::load(Path::new(&id.scene_path), &cfg.scene).unwrap();
+    let dt_ns = (cfg.sim.dt_s * 1e9).round() as u64;
+
+    // Every `timestamp` in a message (headers, transforms, entities) is its log time.
+    fn stamps(v: &serde_json::Value, out: &mut Vec<u64>) {
+        match v {
+            serde_json::Value::Object(m) => {
+                if let Some(t) = m.get("timestamp") {
+                    out.push(
+                        t["sec"].as_u64().unwrap() * 1_000_000_000 + t["nsec"].as_u64().unwrap(),
+                    );
+                }
+                m.values().for_each(|c| stamps(c, out));
+            }
+            serde_json::Value::Array(a) => a.iter().for_each(|c| stamps(c, out)),
+            _ => {}
+        }
+    }
+    let mut poses = std::collections::BTreeMap::new();
+    for m in &contents.messages {
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        let mut found = Vec::new();
+        stamps(&v, &mut found);
+        assert!(
+            found.iter().all(|&t| t == m.log_time_ns),
+            "{} at {} ns carries stamps {found:?}",
+            m.topic,
+            m.log_time_ns
+        );
+        if m.topic == "/tf" {
+            let tfs = v["transforms"].as_array().unwrap();
+            let base = tfs
+                .iter()
+                .find(|t| t["child_frame_id"] == "base_link")
+                .unwrap();
+            let cam = tfs
+                .iter()
+                .find(|t| t["child_frame_id"] == "camera")
+                .unwrap();
+            assert_eq!(cam["parent_frame_id"], "base_link");
+            assert_eq!(
+                cam["translation"]["z"].as_f64().unwrap(),
+                cfg.camera.mount_height_m.get()
+            );
+            let (t, q) = (&base["translation"], &base["rotation"]);
+            let f = |v: &serde_json::Value| v.as_f64().unwrap();
+            assert_eq!((f(&t["z"]), f(&q["x"]), f(&q["y"])), (0.0, 0.0, 0.0));
+            let yaw = 2.0 * f(&q["z"]).atan2(f(&q["w"]));
+            poses.insert(
+                m.log_time_ns,
+                tensorscout::Pose2::new(f(&t["x"]), f(&t["y"]), yaw),
+            );
+        }
+    }
+
+    // Each map key frame has the pose it was integrated at (what `replay --render` draws with it).
+    for m in contents.topic("/map/grid") {
+        assert!(
+            poses.contains_key(&m.log_time_ns),
+            "no /tf at the grid of {} ns",
+            m.log_time_ns
+        );
+    }
+
+    let camera = DepthCamera::new(&cfg.camera);
+    let raster = MeshRaster::new(&scene.mesh).unwrap();
+    let bvh = MeshBvh::new(&scene.mesh).unwrap();
+    let mut frame = DepthFrame::default();
+    let mut a = Agreement::default();
+    for m in contents.topic("/camera/depth") {
+        let Some(at) = m.log_time_ns.checked_sub(lag_steps * dt_ns) else {
+            continue;
+        };
+        let pose = *poses.get(&at).unwrap_or_else(|| {
+            panic!(
+                "no /tf stamped {at} ns for the frame at {} ns",
+                m.log_time_ns
+            )
+        });
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        let bytes = tensorscout::util::base64_decode(v["data"].as_str().unwrap()).unwrap();
+        let logged: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        match cfg.camera.renderer {
+            DepthRenderer::Raster => camera.render_into(&raster, pose, &mut frame),
+            DepthRenderer::Raycast => camera.capture_into(&bvh, pose, &mut frame),
+        }
+        let again = frame.depth_image();
+        assert_eq!(logged.len(), again.len());
+        for (i, (l, r)) in logged.iter().zip(&again).enumerate() {
+            if (l - r).abs() > 1e-3 {
+                if on_silhouette(&logged, frame.width, i) || on_silhouette(&again, frame.width, i) {
+                    a.silhouette_off += 1;
+                } else {
+                    a.off += 1;
+                }
+            }
+        }
+        a.frames += 1;
+        a.pixels += logged.len();
+    }
+    a
+}
+
+/// A logged run with every depth frame on `/camera/depth`.
+fn explore_every_frame(scene: &Path, log: &Path, extra: &[&str]) {
+    let run = bin()
+        .args(["explore", "--scene"])
+        .arg(scene)
+        .arg("--log")
+        .arg(log)
+        .args(["--json", "-q", "--set", "log.depth_every_n=1"])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", stderr(&run));
+}
+
+/// Each depth frame shows what the camera sees from the `/tf` pose of its own stamp: re-rendered
+/// there, every pixel off a silhouette agrees within 1 mm. Paired with the pose one step earlier
+/// (the stamping this guards against) a moving robot's frames disagree, so the check has teeth.
+#[test]
+fn depth_frames_match_the_pose_of_their_stamp() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_copy(dir.path(), "apartment_small.obj");
+    let log = dir.path().join("run.mcap");
+    explore_every_frame(&scene, &log, &["--set", "sim.budget_s=20"]);
+    let same = rerender_depth(&log, 0);
+    eprintln!("same stamp: {same:?}");
+    assert_eq!(same.frames, 200, "{same:?}");
+    assert_eq!(same.off, 0, "{same:?}");
+    assert!(same.silhouette_off * 10_000 <= same.pixels, "{same:?}");
+    let earlier = rerender_depth(&log, 1);
+    eprintln!("one step earlier: {earlier:?}");
+    assert!(earlier.off * 20 > earlier.pixels, "{earlier:?}");
+}
+
+/// The same on every frame of a whole GREEDY run of the largest shipped scene.
+#[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
+fn depth_frames_match_the_pose_of_their_stamp_on_office_large() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_copy(dir.path(), "office_large.obj");
+    let log = dir.path().join("run.mcap");
+    explore_every_frame(
+        &scene,
+        &log,
+        &["--planner", "greedy", "--set", "log.field=false"],
+    );
+    let a = rerender_depth(&log, 0);
+    eprintln!("{a:?}");
+    assert!(a.frames > 1000, "{a:?}");
+    assert_eq!(a.off, 0, "{a:?}");
+    assert!(a.silhouette_off * 10_000 <= a.pixels, "{a:?}");
 }

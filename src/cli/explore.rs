@@ -1,5 +1,6 @@
 //! `tensorscout explore`: one run, its metrics, and optionally a picture.
 
+use super::live::{self, Pacer, Rate};
 use super::{
     check_distinct, check_output, emit, note, parse_start, signals, ConfigArgs, ProfileArg,
     StartArg,
@@ -11,7 +12,7 @@ use nalgebra::Point2;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use tensorscout::log::{Recorder, RunIdentity, RunLog};
+use tensorscout::log::{Recorder, RunIdentity, RunLog, Sinks};
 use tensorscout::map::Map;
 use tensorscout::plan::Action;
 use tensorscout::plan::PlannerKind;
@@ -43,6 +44,15 @@ pub struct ExploreArgs {
     /// Log the run to this MCAP file (opens in Foxglove; see `tensorscout replay`).
     #[arg(long, value_name = "PATH.mcap")]
     log: Option<PathBuf>,
+    /// Serve the run live over the Foxglove WebSocket protocol (the log's topics and schemas) at
+    /// HOST:PORT, 127.0.0.1:8765 when none is given; open it in Foxglove or Lichtblick with
+    /// *Open connection → Foxglove WebSocket*. A slow client loses messages, never slows the run.
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = live::DEFAULT_ADDR)]
+    live: Option<String>,
+    /// With --live: simulated seconds per wall second (1 = real time, the default; 0.25 slows it
+    /// down), or `max` for as fast as it goes.
+    #[arg(long, value_name = "R|max", value_parser = live::parse_rate, requires = "live")]
+    rate: Option<Rate>,
     /// Write the final 2D map into this existing folder as a ROS map_server pair, `map.yaml` and a
     /// trinary `map.pgm` (free 254, obstacle 0, unknown 205) at the map's resolution and origin.
     #[arg(long, value_name = "DIR")]
@@ -61,36 +71,24 @@ pub struct ExploreArgs {
     force: bool,
 }
 
-/// Forwards to up to two observers (the log and the progress bar); a SIGINT or SIGTERM asks the
-/// run to stop.
-struct Both<'a>(Option<&'a mut dyn Observer>, Option<&'a mut dyn Observer>);
+/// Forwards to every observer (the log and live view, the progress bar, the pacer); a SIGINT or
+/// SIGTERM asks the run to stop.
+struct All<'a>(Vec<&'a mut dyn Observer>);
 
-impl Observer for Both<'_> {
+impl Observer for All<'_> {
     fn on_step(&mut self, view: &StepView) {
-        self.0
-            .iter_mut()
-            .chain(self.1.iter_mut())
-            .for_each(|o| o.on_step(view));
+        self.0.iter_mut().for_each(|o| o.on_step(view));
     }
     fn on_plan(&mut self, time_s: f64, action: &Action, map: &Map, tour: &[Point2<f64>]) {
         self.0
             .iter_mut()
-            .chain(self.1.iter_mut())
             .for_each(|o| o.on_plan(time_s, action, map, tour));
     }
     fn on_finish(&mut self, result: &RunResult) {
-        self.0
-            .iter_mut()
-            .chain(self.1.iter_mut())
-            .for_each(|o| o.on_finish(result));
+        self.0.iter_mut().for_each(|o| o.on_finish(result));
     }
     fn stop_requested(&self) -> bool {
-        signals::stop_requested()
-            || self
-                .0
-                .iter()
-                .chain(self.1.iter())
-                .any(|o| o.stop_requested())
+        signals::stop_requested() || self.0.iter().any(|o| o.stop_requested())
     }
 }
 
@@ -172,6 +170,8 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     };
     // Fail on an unavailable planner before the scene is loaded.
     args.planner.build(&cfg)?;
+    // A port in use fails here, before any work.
+    let live_server = args.live.as_deref().map(live::serve).transpose()?;
     let scene = scene::load(&args.scene, &cfg.scene)?;
     for w in &scene.warnings {
         note!("warning: {w}");
@@ -191,18 +191,25 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     // From here a SIGINT or SIGTERM stops the run cleanly: its result is printed and its log
     // finished, then the process exits 130 or 143.
     let _cooperative = signals::Cooperative::begin();
-    let mut logger = match &args.log {
+    let log = match &args.log {
         Some(path) => {
             let identity = RunIdentity::new(&args.scene, &scene, args.planner, &cfg, spawn);
-            Some(Recorder::new(
-                RunLog::create(path, &identity, &cfg.log)?,
-                &cfg,
-                &scene.mesh,
-                None,
-            ))
+            Some(RunLog::create(path, &identity, &cfg.log)?)
         }
         None => None,
     };
+    // One recorder builds every message once, for the file and the live view.
+    let mut recorder = (log.is_some() || live_server.is_some()).then(|| {
+        let sinks = Sinks {
+            log,
+            live: live_server,
+        };
+        Recorder::new(sinks, &cfg, &scene.mesh, None)
+    });
+    let mut pacer = args
+        .live
+        .is_some()
+        .then(|| Pacer::new(args.rate.unwrap_or(Rate::Times(1.0))));
     let mut progress = interactive.then(|| {
         let bar = ProgressBar::new(cfg.sim.budget_s.get() as u64);
         bar.set_style(
@@ -213,17 +220,29 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         );
         Progress { bar }
     });
-    let mut both = Both(
-        logger.as_mut().map(|l| l as &mut dyn Observer),
-        progress.as_mut().map(|p| p as &mut dyn Observer),
-    );
-    let output = sim::run(&scene, world, &cfg, args.planner, &mut both);
+    let mut observers: Vec<&mut dyn Observer> = Vec::new();
+    if let Some(r) = recorder.as_mut() {
+        observers.push(r);
+    }
+    if let Some(p) = progress.as_mut() {
+        observers.push(p);
+    }
+    if let Some(p) = pacer.as_mut() {
+        observers.push(p);
+    }
+    let output = sim::run(&scene, world, &cfg, args.planner, &mut All(observers));
     if let Some(p) = &progress {
         p.bar.finish_and_clear();
     }
-    // The log is finished (summary section written) whatever the run's outcome.
-    if let Some(l) = logger {
-        l.sink.close()?;
+    // The log is finished (summary section written) whatever the run's outcome; the live view
+    // gets what is queued for it, then says what it delivered.
+    if let Some(r) = recorder {
+        if let Some(server) = r.sink.live {
+            live::report(&server.close());
+        }
+        if let Some(l) = r.sink.log {
+            l.close()?;
+        }
     }
     let output = output?;
     let r = &output.result;

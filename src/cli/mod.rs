@@ -3,6 +3,7 @@
 mod bench;
 mod explore;
 mod field;
+mod live;
 mod replay;
 mod scene;
 
@@ -30,7 +31,8 @@ enum Command {
     #[command(
         after_help = "Examples:\n  tensorscout explore --scene scenes/apartment_small.obj --planner thp\n  \
 tensorscout explore --scene scenes/office_large.obj --planner thp --seed 3 --json --png run.png\n  \
-tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2.0,1.57"
+tensorscout explore --scene map.yaml --set robot.max_speed_mps=0.5 --spawn 1.0,2.0,1.57\n  \
+tensorscout explore --scene scenes/office_large.obj --live --rate 4   (watch in Foxglove: ws://127.0.0.1:8765)"
     )]
     Explore(explore::ExploreArgs),
     /// Generate, import, inspect or draw scenes.
@@ -51,7 +53,8 @@ tensorscout bench merge shard1 shard2 --out bench_out"
     Bench(bench::BenchArgs),
     /// Summarise, verify or draw a run log written by `explore --log`.
     #[command(
-        after_help = "Examples:\n  tensorscout replay run.mcap --json\n  tensorscout replay run.mcap --verify"
+        after_help = "Examples:\n  tensorscout replay run.mcap --json\n  tensorscout replay run.mcap --verify\n  \
+tensorscout replay run.mcap --live --rate 2   (plays the log to Foxglove at ws://127.0.0.1:8765)"
     )]
     Replay(replay::ReplayArgs),
     /// Print configuration.
@@ -229,15 +232,28 @@ pub fn clap_exit(e: clap::Error) -> std::process::ExitCode {
                 .find(|l| !l.is_empty())
                 .unwrap_or("invalid command line");
             let first = first.strip_prefix("error: ").unwrap_or(first);
-            let msg = if kind == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
-                "a subcommand is required".to_string()
-            } else if let Some(clap::error::ContextValue::Strings(values)) =
-                e.get(clap::error::ContextKind::ValidValue)
-            {
+            let valid = match e.get(clap::error::ContextKind::ValidValue) {
+                Some(clap::error::ContextValue::Strings(values)) => Some(values.join(", ")),
+                _ => None,
+            };
+            let msg = match kind {
+                ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+                    "a subcommand is required".to_string()
+                }
+                // The missing arguments are listed on the lines after the first, before the usage.
+                ErrorKind::MissingRequiredArgument => {
+                    let missing: Vec<&str> = text
+                        .lines()
+                        .map(str::trim)
+                        .filter(|l| !l.is_empty())
+                        .skip(1)
+                        .take_while(|l| !l.starts_with("Usage:"))
+                        .collect();
+                    format!("{first} {}", missing.join(", "))
+                }
                 // A value outside a fixed set: name the set on the same line.
-                format!("{first}: expected one of {}", values.join(", "))
-            } else {
-                first.to_string()
+                _ if valid.is_some() => format!("{first}: expected one of {}", valid.unwrap()),
+                _ => first.to_string(),
             };
             let _ = writeln!(std::io::stderr(), "error: {msg} (see --help)");
             std::process::ExitCode::from(2)

@@ -1,12 +1,13 @@
 //! `tensorscout replay`: a run log's summary, its exact re-run check (`--verify`), and pictures.
 
+use super::live::{self, Pacer, Rate};
 use super::{emit, note};
 use anyhow::Result;
 use clap::Args;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use tensorscout::log::read_log;
 use tensorscout::log::replay::{render, summarise, verify};
+use tensorscout::log::{read_log, LiveServer, LogContents, TOPICS};
 use tensorscout::Error;
 
 #[derive(Args)]
@@ -32,6 +33,14 @@ pub struct ReplayArgs {
     /// Re-run from the recorded scene, config and seed and compare every message.
     #[arg(long)]
     verify: bool,
+    /// Play the log over the Foxglove WebSocket protocol at HOST:PORT (127.0.0.1:8765 when none is
+    /// given), as `explore --live` serves a run; playback starts when a client subscribes. Put the
+    /// log before this flag.
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = live::DEFAULT_ADDR)]
+    live: Option<String>,
+    /// With --live: simulated seconds per wall second (1 = real time, the default), or `max`.
+    #[arg(long, value_name = "R|max", value_parser = live::parse_rate, requires = "live")]
+    rate: Option<Rate>,
     /// Let `--render` replace the frames in a folder that already holds some.
     #[arg(long)]
     force: bool,
@@ -93,6 +102,8 @@ pub fn run(args: ReplayArgs) -> Result<()> {
     if let Some(dir) = &args.render {
         prepare_render_dir(dir, args.force)?;
     }
+    // A port in use fails before the log is read.
+    let server = args.live.as_deref().map(live::serve).transpose()?;
     let log = read_log(&args.log)?;
     let summary = summarise(&log);
     let mut text = String::new();
@@ -144,6 +155,10 @@ pub fn run(args: ReplayArgs) -> Result<()> {
         }
     }
     emit(&text)?;
+    if let Some(server) = server {
+        play(&log, &server, args.rate.unwrap_or(Rate::Times(1.0)));
+        live::report(&server.close());
+    }
     if let Some(dir) = &args.render {
         let frames = render(&log, dir, args.every)?;
         note!(
@@ -184,4 +199,24 @@ pub fn run(args: ReplayArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Sends the log's messages in time order to the live server's clients at `rate`, from the moment
+/// a first client subscribes (Ctrl-C ends it).
+fn play(log: &LogContents, server: &LiveServer, rate: Rate) {
+    note!("live: playback starts when a client subscribes");
+    while !server.has_subscriber() {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let mut messages: Vec<_> = log.messages.iter().collect();
+    messages.sort_by_key(|m| m.log_time_ns);
+    let pacer = Pacer::new(rate);
+    for m in messages {
+        let Some(topic) = TOPICS.iter().find(|t| t.name == m.topic) else {
+            continue;
+        };
+        pacer.wait_until(m.log_time_ns as f64 * 1e-9);
+        server.publish(topic, m.log_time_ns, &m.data);
+    }
+    server.status(0, "end of the log");
 }

@@ -10,10 +10,12 @@
 //! (`data`) are base64 strings, as Foxglove's JSON encoding expects.
 //!
 //! Layout: [`topics`] is the registry (adding a topic is one line there plus one builder function
-//! in [`record`]); [`record`] turns simulator state into messages; [`writer`] writes them with zstd
-//! chunks and metadata; [`reader`] reads a possibly damaged file; [`replay`] summarises, verifies
+//! in [`record`]); [`record`] turns simulator state into messages, once, for two sinks
+//! ([`Sinks`]): [`writer`] writes them with zstd chunks and metadata, [`live`] serves them to
+//! Foxglove over a WebSocket as the run goes; [`reader`] reads a possibly damaged file; [`replay`] summarises, verifies
 //! and renders.
 
+pub mod live;
 pub mod reader;
 pub(crate) mod record;
 pub mod replay;
@@ -21,8 +23,9 @@ pub(crate) mod topics;
 pub mod tum;
 pub(crate) mod writer;
 
+pub use live::{LiveReport, LiveServer};
 pub use reader::{read_log, LogContents, LoggedMessage};
-pub use record::{Recorder, Sink};
+pub use record::{Recorder, Sink, Sinks};
 pub use topics::{Topic, TOPICS};
 pub use writer::RunLog;
 

@@ -23,6 +23,33 @@ pub trait Sink {
     fn finish(&mut self, _result: &RunResult) {}
 }
 
+/// The run log, the live server, or both: every message is built once and goes to each.
+#[derive(Default)]
+pub struct Sinks {
+    pub log: Option<super::RunLog>,
+    pub live: Option<super::LiveServer>,
+}
+
+impl Sink for Sinks {
+    fn put(&mut self, topic: &'static Topic, time_ns: u64, message: Vec<u8>) {
+        if let Some(live) = &self.live {
+            live.publish(topic, time_ns, &message);
+        }
+        if let Some(log) = &mut self.log {
+            log.put(topic, time_ns, message);
+        }
+    }
+
+    fn finish(&mut self, result: &RunResult) {
+        if let Some(log) = &mut self.log {
+            log.finish(result);
+        }
+        if let Some(live) = &mut self.live {
+            live.finish(result);
+        }
+    }
+}
+
 /// An [`Observer`] that builds every topic's messages at the configured rates.
 pub struct Recorder<S: Sink> {
     pub sink: S,
@@ -65,6 +92,14 @@ impl<S: Sink> Recorder<S> {
     fn put(&mut self, topic: &'static Topic, time_s: f64, message: &Value) {
         let bytes = serde_json::to_vec(message).expect("JSON values serialise");
         self.sink.put(topic, time_ns(time_s), bytes);
+    }
+
+    /// `/robot/pose` and `/tf` at `time_s`, and the pose appended to the trajectory.
+    fn put_pose(&mut self, time_s: f64, pose: Pose2) {
+        self.put(&topics::POSE, time_s, &pose_message(time_s, pose));
+        let tf = tf_message(time_s, pose, &self.camera);
+        self.put(&topics::TF, time_s, &tf);
+        self.trajectory.push([pose.x, pose.y]);
     }
 }
 
@@ -462,44 +497,33 @@ pub fn metrics_message(view: &StepView) -> Value {
 }
 
 impl<S: Sink> Observer for Recorder<S> {
+    /// Every message carries the simulated time of the state it shows. A step senses at its start
+    /// (`sensed_time_s`, pose `sensed_pose`) and moves the robot by its end (`time_s`): the depth
+    /// frame, the map key frame and the field it was built from are stamped with the former; pose,
+    /// `/tf`, trajectory and metrics (path length, collisions, completeness as known then) with
+    /// the latter. Messages are put in time order, so a live viewer sees stamps that never go back.
     fn on_step(&mut self, view: &StepView) {
+        let sensed = view.sensed_time_s;
         if let Some(scene) = self.scene.take() {
-            // Once, at the first step: the scene mesh and the robot's footprint (frame-locked to
-            // `base_link`, so it follows `/tf`).
-            self.put(&topics::SCENE, view.time_s, &scene);
-            let footprint =
-                footprint_message(view.time_s, self.robot_radius_m, self.robot_height_m);
-            self.put(&topics::ROBOT, view.time_s, &footprint);
+            // Once, at the first step: the scene mesh, the robot's footprint (frame-locked to
+            // `base_link`, so it follows `/tf`) and the start pose, where the first frame was taken.
+            self.put(&topics::SCENE, sensed, &scene);
+            let footprint = footprint_message(sensed, self.robot_radius_m, self.robot_height_m);
+            self.put(&topics::ROBOT, sensed, &footprint);
+            self.put_pose(sensed, view.sensed_pose);
         }
-        self.put(
-            &topics::POSE,
-            view.time_s,
-            &pose_message(view.time_s, view.pose),
-        );
-        let tf = tf_message(view.time_s, view.pose, &self.camera);
-        self.put(&topics::TF, view.time_s, &tf);
-        self.trajectory.push([view.pose.x, view.pose.y]);
         if let Some(frame) = view.frame {
             let n = self.cfg.depth_every_n;
             if n > 0 && self.frames_seen.is_multiple_of(n) {
-                self.put(
-                    &topics::DEPTH,
-                    view.time_s,
-                    &depth_message(view.time_s, frame),
-                );
-                let calibration = calibration_message(view.time_s, &self.camera);
-                self.put(&topics::CAMERA_INFO, view.time_s, &calibration);
+                self.put(&topics::DEPTH, sensed, &depth_message(sensed, frame));
+                let calibration = calibration_message(sensed, &self.camera);
+                self.put(&topics::CAMERA_INFO, sensed, &calibration);
             }
             self.frames_seen += 1;
         }
-        if view.time_s + 1e-9 >= self.next_key_frame_s {
-            self.put(
-                &topics::MAP_GRID,
-                view.time_s,
-                &grid_message(view.time_s, view.map),
-            );
-            let trajectory = trajectory_message(view.time_s, &self.trajectory);
-            self.put(&topics::TRAJECTORY, view.time_s, &trajectory);
+        let key_frame = sensed + 1e-9 >= self.next_key_frame_s;
+        if key_frame {
+            self.put(&topics::MAP_GRID, sensed, &grid_message(sensed, view.map));
             if self.cfg.field {
                 // The planner's own field when it has one (what THP and TENSOR steer by, path
                 // constraints included); else one built here from the map.
@@ -515,17 +539,22 @@ impl<S: Sink> Observer for Recorder<S> {
                     }
                 };
                 if let Some(field) = field {
-                    let tensor = field_tensor_message(view.time_s, field);
-                    let degenerate = degenerate_message(view.time_s, field);
-                    let topology = topology_message(view.time_s, field);
-                    self.put(&topics::FIELD_TENSOR, view.time_s, &tensor);
-                    self.put(&topics::FIELD_DEGENERATE, view.time_s, &degenerate);
-                    self.put(&topics::FIELD_TOPOLOGY, view.time_s, &topology);
+                    let tensor = field_tensor_message(sensed, field);
+                    let degenerate = degenerate_message(sensed, field);
+                    let topology = topology_message(sensed, field);
+                    self.put(&topics::FIELD_TENSOR, sensed, &tensor);
+                    self.put(&topics::FIELD_DEGENERATE, sensed, &degenerate);
+                    self.put(&topics::FIELD_TOPOLOGY, sensed, &topology);
                 }
             }
-            while self.next_key_frame_s <= view.time_s + 1e-9 {
+            while self.next_key_frame_s <= sensed + 1e-9 {
                 self.next_key_frame_s += self.cfg.map_every_s;
             }
+        }
+        self.put_pose(view.time_s, view.pose);
+        if key_frame {
+            let trajectory = trajectory_message(view.time_s, &self.trajectory);
+            self.put(&topics::TRAJECTORY, view.time_s, &trajectory);
         }
         self.put(&topics::METRICS, view.time_s, &metrics_message(view));
     }

@@ -25,9 +25,16 @@ use std::time::Instant;
 /// What an observer sees after each step (for progress bars and logs).
 pub struct StepView<'a> {
     pub step: u64,
+    /// Simulated time at the end of the step: the time of `pose` and of the metrics.
     pub time_s: f64,
     pub budget_s: f64,
+    /// The robot's pose at `time_s`, after this step's motion.
     pub pose: Pose2,
+    /// Simulated time at the start of the step, when `frame` was rendered and `map` and `field`
+    /// were last updated: what a log stamps them with.
+    pub sensed_time_s: f64,
+    /// The pose at `sensed_time_s`, the one `frame` was rendered from.
+    pub sensed_pose: Pose2,
     pub completeness: f64,
     pub path_length_m: f64,
     pub frame: Option<&'a DepthFrame>,
@@ -377,6 +384,7 @@ impl<'a> Simulation<'a> {
         }
         let cfg = self.cfg;
         let time_s = self.time_s();
+        let sensed_pose = self.robot.pose;
         self.clock.begin();
         // Sense.
         let fired = self.step.is_multiple_of(self.camera_period);
@@ -480,6 +488,8 @@ impl<'a> Simulation<'a> {
             time_s: self.time_s(),
             budget_s: cfg.sim.budget_s.get(),
             pose,
+            sensed_time_s: time_s,
+            sensed_pose,
             completeness: self.explored.completeness(),
             path_length_m: self.robot.path_length_m,
             frame: fired.then_some(&self.frame),
