@@ -36,8 +36,8 @@
 //! of more than 64 layers, frames whose ray count is not width × height, and origins outside the
 //! grid are walked ray by ray.
 //!
-//! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
-//! way, with triangle tests on top; the two could share the path and the layer checks.)
+//! (The observable set's `VoxelCaster::sweep_column` in `eval/observable/sweep.rs` sweeps columns the
+//! same way, with triangle tests on top; the two could share the path and the layer checks.)
 
 use super::occupancy::hit_voxel_at;
 use crate::grid::{floor_both, floor_i64, GridSpec, TIE_M};
