@@ -37,7 +37,9 @@
 //! grid are walked ray by ray.
 //!
 //! (The observable set's `VoxelCaster::sweep_column` in `eval/observable/sweep.rs` sweeps columns the
-//! same way, with triangle tests on top; the two could share the path and the layer checks.)
+//! same way but cannot be this sweep: this one takes each ray's end from the frame, that one finds
+//! the end while it sweeps, from the triangles of the occupied voxels its runs meet. Integrating a
+//! cast frame here instead does not give the observable set's voxels bit for bit: see that module.)
 
 use super::occupancy::hit_voxel_at;
 use crate::grid::{floor_both, floor_i64, GridSpec, TIE_M};
