@@ -9,9 +9,10 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use std::hint::black_box;
 use std::path::Path;
 use tensorscout::config::Config;
+use tensorscout::eval::GroundTruth;
 use tensorscout::field::{eval, MaskInputs, SpaceTimeParams, TensorField};
 use tensorscout::plan::PlannerKind;
-use tensorscout::scene::{self, GroundTruth};
+use tensorscout::scene;
 use tensorscout::sim::{self, Observer, StepView, World};
 use tensorscout::GridSpec;
 

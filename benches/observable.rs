@@ -1,12 +1,13 @@
-//! The observable set of a scene (`sim::observable`): the ground truth's ray sampling over the
+//! The observable set of a scene (`eval::observable`): the ground truth's ray sampling over the
 //! reachable region, for a small and the largest shipped scene and a real plan whose views through
 //! narrow gaps are sampled again finer, without the disk cache.
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
 use std::time::Duration;
-use tensorscout::scene::{self, GroundTruth};
+use tensorscout::eval::GroundTruth;
+use tensorscout::eval::{ObservableParams, ObservableSet};
+use tensorscout::scene;
 use tensorscout::sensor::{DepthCamera, MeshBvh};
-use tensorscout::sim::observable::{ObservableParams, ObservableSet};
 use tensorscout::Config;
 
 fn observable(c: &mut Criterion) {

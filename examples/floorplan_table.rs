@@ -10,8 +10,9 @@
 //! separate, not touching the plan's outside.
 
 use std::path::Path;
+use tensorscout::eval::info;
 use tensorscout::grid::Cell;
-use tensorscout::scene::{self, ground_truth::info};
+use tensorscout::scene;
 use tensorscout::sim::{ObservableCache, World};
 use tensorscout::Config;
 

@@ -4,8 +4,8 @@
 //! `cargo run --release --example make_scenes` (prints the rows of `scenes/README.md`'s table).
 
 use std::path::Path;
+use tensorscout::eval::{info, GroundTruth};
 use tensorscout::scene::generate::{generate, shipped_generated};
-use tensorscout::scene::ground_truth::{info, GroundTruth};
 use tensorscout::scene::{self, write_obj};
 use tensorscout::{Config, Pose2};
 

@@ -182,7 +182,7 @@ pub struct Additions {
     pub nbv_frontier_views: bool,
 }
 
-/// How the ground truth of what can be observed is sampled (see `sim::observable`).
+/// How the ground truth of what can be observed is sampled (see `eval::observable`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MetricsConfig {

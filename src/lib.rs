@@ -3,8 +3,9 @@
 //!
 //! Data flows one way through the stages, one module each:
 //! `scene` (mesh, ground truth) → `sensor` (depth frames) → `map` (occupancy voxels, 2D layers,
-//! frontiers) → `field` (tensor field and its topology) → `plan` (goals and paths) → `sim` (robot,
-//! motion, the step loop, metrics) → `log`, `bench`, `render` (run logs, batch runs, pictures) → the
+//! frontiers) → `eval` (reachable region, observable set, metrics) → `field` (tensor field and its
+//! topology) → `plan` (goals and paths) → `sim` (robot, motion, the step loop, the run's result) →
+//! `log`, `bench`, `render` (run logs, batch runs, pictures) → the
 //! binary's `cli`. A module uses only its own layer, earlier ones and the foundations (`config`,
 //! `error`, `grid`, `util`); `tests/layers.rs` checks it, and ARCHITECTURE.md draws the graph.
 //! Implementation modules are private to the crate; each layer re-exports what callers need.
@@ -25,6 +26,7 @@
 pub mod bench;
 pub mod config;
 pub mod error;
+pub mod eval;
 pub mod field;
 pub mod grid;
 pub mod log;

@@ -4,8 +4,9 @@
 mod common;
 
 use common::shipped_scenes;
+use tensorscout::eval::GroundTruth;
 use tensorscout::field;
-use tensorscout::scene::{self, GroundTruth};
+use tensorscout::scene;
 use tensorscout::Config;
 
 #[test]

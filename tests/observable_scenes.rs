@@ -5,10 +5,11 @@
 mod common;
 
 use std::path::Path;
+use tensorscout::eval::GroundTruth;
+use tensorscout::eval::{ObservableParams, ObservableSet};
 use tensorscout::plan::PlannerKind;
-use tensorscout::scene::{self, GroundTruth};
+use tensorscout::scene;
 use tensorscout::sensor::{DepthCamera, MeshBvh};
-use tensorscout::sim::observable::{ObservableParams, ObservableSet};
 use tensorscout::sim::{self, World};
 use tensorscout::Config;
 

@@ -62,7 +62,7 @@ pub struct BenchSpec {
     pub reference: Option<PlannerKind>,
     /// Write each run's MCAP log into `out/logs/`.
     pub log_runs: bool,
-    /// Where observable sets are cached (see `sim::observable`).
+    /// Where observable sets are cached (see `eval::observable`).
     pub cache: ObservableCache,
 }
 

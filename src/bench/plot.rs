@@ -12,7 +12,7 @@
 
 use super::store::{BenchRow, RunStatus};
 use super::summary::{run_labeller, scene_name};
-use crate::sim::metrics::CurveSample;
+use crate::sim::CurveSample;
 use crate::{Error, Result};
 use plotters::prelude::*;
 use std::collections::BTreeMap;

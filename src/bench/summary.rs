@@ -10,7 +10,7 @@
 use super::stats::{Better, MeanCi, PairedDiff};
 use super::store::{BenchRow, RunStatus};
 use crate::plan::PlannerKind;
-use crate::sim::metrics::STAGES;
+use crate::sim::STAGES;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -87,7 +87,7 @@ pub const EQUAL_COVERAGE_FRACTION: f64 = 0.9;
 
 /// Path length at which a run's curve first reached explored volume `target` (linear between curve
 /// samples); `None` if it never did.
-pub fn path_to_volume(curve: &[crate::sim::metrics::CurveSample], target: f64) -> Option<f64> {
+pub fn path_to_volume(curve: &[crate::sim::CurveSample], target: f64) -> Option<f64> {
     let k = curve.iter().position(|c| c.explored_volume_m3 >= target)?;
     if k == 0 {
         return Some(curve[0].path_length_m);
@@ -246,7 +246,7 @@ impl Summary {
                 tsp_ms: {
                     let tsp: Vec<_> = ok.iter().filter_map(|r| r.timings_ms.get("tsp")).collect();
                     (!tsp.is_empty()).then(|| {
-                        let m = |f: &dyn Fn(&crate::sim::metrics::StageStats) -> f64| {
+                        let m = |f: &dyn Fn(&crate::sim::StageStats) -> f64| {
                             tsp.iter().map(|t| f(t)).sum::<f64>() / tsp.len() as f64
                         };
                         [m(&|t| t.mean), m(&|t| t.p50), m(&|t| t.p95)]
@@ -515,7 +515,7 @@ mod tests {
     fn tsp_time_per_planning_step_is_averaged_over_runs() {
         let with_tsp = |mean: f64, p50: f64, p95: f64| {
             let mut r = row("thp", "c1", Some(8.0));
-            let stats = crate::sim::metrics::StageStats {
+            let stats = crate::sim::StageStats {
                 mean,
                 p50,
                 p95,

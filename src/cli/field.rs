@@ -55,7 +55,7 @@ pub fn run(args: FieldArgs) -> Result<()> {
     for w in &scene.warnings {
         note!("warning: {w}");
     }
-    let gt = scene::build_ground_truth(&scene, args.spawn, &cfg)?;
+    let gt = tensorscout::eval::build_ground_truth(&scene, args.spawn, &cfg)?;
     let Known::Full = args.known;
     let surface = gt.surface_columns();
     let t = Instant::now();

@@ -4,7 +4,8 @@ use super::{check_distinct, check_output, emit, note, parse_spawn, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
-use tensorscout::scene::{self, generate, GroundTruth};
+use tensorscout::eval::{self, GroundTruth};
+use tensorscout::scene::{self, generate};
 use tensorscout::sim::{ObservableCache, World};
 use tensorscout::{render, Pose2};
 
@@ -138,7 +139,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             check_distinct(&[("-o", &output)], &[("the input", &input)])?;
             let cfg = config.load()?;
             let scene = scene::load(&input, &cfg.scene)?;
-            let gt = scene::build_ground_truth(&scene, None, &cfg)?;
+            let gt = eval::build_ground_truth(&scene, None, &cfg)?;
             warn_scene(&scene, &gt);
             let comments = vec![format!(
                 "imported from {} ({}) by tensorscout {}",
@@ -156,7 +157,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
         }
         SceneCommand::Info(args) => {
             let (scene, world) = args.scene.load()?;
-            let mut info = scene::info(&scene, &world.ground_truth);
+            let mut info = eval::info(&scene, &world.ground_truth);
             info.observable_volume_m3 = world.observable.volume_m3();
             info.observable_surface_voxels = world.observable.surface_voxels().len();
             info.observable_positions = world.observable.positions();
@@ -195,7 +196,7 @@ fn parse_style(s: &str) -> std::result::Result<generate::Style, String> {
     generate::Style::parse(s).map_err(|e| e.to_string())
 }
 
-fn info_text(i: &scene::ground_truth::SceneInfo) -> String {
+fn info_text(i: &eval::SceneInfo) -> String {
     use std::fmt::Write as _;
     let mut o = String::new();
     let _ = writeln!(o, "scene          {} ({})", i.name, i.path);

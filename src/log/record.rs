@@ -8,7 +8,7 @@ use crate::map::{CellState, Map};
 use crate::plan::Action;
 use crate::render::palette;
 use crate::scene::TriMesh;
-use crate::sim::metrics::STAGES;
+use crate::sim::STAGES;
 use crate::sim::{Observer, RunResult, StepView};
 use crate::Pose2;
 use nalgebra::Point2;

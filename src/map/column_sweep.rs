@@ -36,8 +36,10 @@
 //! of more than 64 layers, frames whose ray count is not width × height, and origins outside the
 //! grid are walked ray by ray.
 //!
-//! (The observable set's `VoxelCaster::sweep_column` in `sim/observable.rs` sweeps columns the same
-//! way, with triangle tests on top; the two could share the path and the layer checks.)
+//! (The observable set's `VoxelCaster::sweep_column` in `eval/observable/sweep.rs` sweeps columns the
+//! same way but cannot be this sweep: this one takes each ray's end from the frame, that one finds
+//! the end while it sweeps, from the triangles of the occupied voxels its runs meet. Integrating a
+//! cast frame here instead does not give the observable set's voxels bit for bit: see that module.)
 
 use super::occupancy::hit_voxel_at;
 use crate::grid::{floor_both, floor_i64, GridSpec, TIE_M};

@@ -5,9 +5,9 @@
 //! come from [`palette`]; the canvas remembers which palette entries it drew, and [`Canvas::save`]
 //! writes the picture with a panel on its right: a scale bar and a legend of exactly those entries.
 
+use crate::eval::GroundTruth;
 use crate::grid::GridSpec;
 use crate::map::{CellState, Map};
-use crate::scene::GroundTruth;
 use crate::sim::ObservableSet;
 use crate::{Error, Pose2, Result};
 use image::{Rgb, RgbImage};

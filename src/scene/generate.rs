@@ -962,7 +962,7 @@ pub fn shipped_generated() -> Vec<(&'static str, Style, u64, f64)> {
 mod tests {
     use super::*;
     use crate::config::Config;
-    use crate::scene::ground_truth::GroundTruth;
+    use crate::scene::ground_truth::SceneTruth;
 
     #[test]
     fn same_seed_same_mesh_different_seed_differs() {
@@ -1043,7 +1043,7 @@ mod tests {
         let cfg = Config::default();
         for (i, style) in Style::ALL.into_iter().enumerate() {
             let g = generate(style, 20 + i as u64, 140.0).unwrap();
-            let gt = GroundTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
+            let gt = SceneTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
             assert!(g.rooms.len() >= 2, "{style:?}");
             assert!(g.doors >= g.rooms.len() - 1);
             assert!(
@@ -1072,7 +1072,7 @@ mod tests {
     /// cell to the nearest drivable cell)`. Drivable: free with clearance ≥ `drive_m`. The distance
     /// runs through free cells only (8-connected chamfer 10/14, no corner cutting), so a cell behind
     /// a wall is never "near".
-    fn drivability(gt: &GroundTruth, drive_m: f32) -> (usize, f64) {
+    fn drivability(gt: &SceneTruth, drive_m: f32) -> (usize, f64) {
         use std::cmp::Reverse;
         use std::collections::BinaryHeap;
         let g = gt.grid;
@@ -1164,7 +1164,7 @@ mod tests {
         }
         for (name, style, seed, area) in cases {
             let g = generate(style, seed, area).unwrap();
-            let gt = GroundTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
+            let gt = SceneTruth::build(&g.mesh, Some(g.spawn), &cfg).unwrap();
             let (components, worst) = drivability(&gt, 0.4);
             eprintln!(
                 "{name}: {components} drivable component(s), farthest free cell {worst:.2} m"
@@ -1192,7 +1192,7 @@ mod tests {
         ] {
             mesh.push_box(min, max);
         }
-        let gt = GroundTruth::build(&mesh, Some(Pose2::new(2.5, 2.8, 0.0)), &cfg).unwrap();
+        let gt = SceneTruth::build(&mesh, Some(Pose2::new(2.5, 2.8, 0.0)), &cfg).unwrap();
         let (components, worst) = drivability(&gt, 0.4);
         assert_eq!(components, 1);
         assert!(worst > 0.7, "{worst}");

@@ -1,13 +1,7 @@
-//! The ground truth the metrics compare against: the mesh voxelised on the map grid, obstacle columns,
-//! the region around the spawn, the **reachable region**, surface voxels and obstacle clearance.
-//!
-//! The reachable region is where the robot can ever be: the floor cells whose centre keeps the
-//! planners' inflation radius (`robot.radius_m + map.inflation_margin_m`) from every obstacle
-//! column's square, connected to the spawn under the searches' move rule (8-connected, a diagonal
-//! step only when both orthogonal cells beside it are open). Real plans have doors narrower than the
-//! robot and openings onto the outside: what lies beyond those is not counted against any planner.
-//! What the camera can observe from that region is computed above the sensor, in
-//! `sim::observable`.
+//! The scene's ground truth on the map grid: the mesh voxelised, obstacle columns, the region
+//! around the spawn, surface voxels and obstacle clearance, and the spawn itself (checked, or chosen
+//! automatically). The reachable region and what the camera can observe from it are the evaluation
+//! layer's (`eval`), which builds its `GroundTruth` on this one.
 //!
 //! Voxelisation is an exact triangle–box separating-axis test in grid units, with vertices snapped to
 //! 1e-4 of a voxel and voxels treated as half-open `[i, i+1)`: a wall face lying exactly on a voxel
@@ -15,14 +9,13 @@
 //! its upper side, never both, and floating-point noise in the grid origin cannot flip that choice.
 
 use super::geometry::triangle_meets_cylinder;
-use super::{Scene, TriMesh};
+use super::TriMesh;
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::grid::{distance_transform, Cell, GridSpec, NEIGHBOURS_8};
 use crate::Pose2;
 use nalgebra::Point2;
 use rayon::prelude::*;
-use serde::Serialize;
 
 /// Vertices are snapped to this fraction of a voxel before the overlap test.
 const SNAP: f64 = 1e-4;
@@ -31,20 +24,13 @@ const OPEN: f64 = 0.5 * SNAP;
 
 /// Ground truth of one scene on the map grid.
 #[derive(Clone, Debug)]
-pub struct GroundTruth {
+pub struct SceneTruth {
     pub grid: GridSpec,
     pub spawn: Pose2,
     occupied: Vec<bool>,
     obstacle: Vec<bool>,
     region: Vec<bool>,
     region_cells: usize,
-    /// Distance from each cell centre to the nearest obstacle column's square, metres: exact below
-    /// `fit_limit_m`, a lower bound at or above it.
-    fit_clearance: Vec<f32>,
-    fit_limit_m: f64,
-    inflation_m: f64,
-    reachable: Vec<bool>,
-    reachable_cells: usize,
     triangles: VoxelTriangles,
     band: std::ops::Range<usize>,
     surface: Vec<u32>,
@@ -64,10 +50,10 @@ pub fn scene_grid(mesh: &TriMesh, cfg: &Config) -> Option<GridSpec> {
     ))
 }
 
-impl GroundTruth {
+impl SceneTruth {
     /// Voxelises `mesh` on the grid covering its xy bounds ± `map.margin_m`, up to `map.band_max_m`,
     /// validates or chooses the spawn, and flood-fills the explorable region from it.
-    pub fn build(mesh: &TriMesh, spawn: Option<Pose2>, cfg: &Config) -> Result<GroundTruth> {
+    pub fn build(mesh: &TriMesh, spawn: Option<Pose2>, cfg: &Config) -> Result<SceneTruth> {
         let empty = || Error::Runtime("ground truth of an empty mesh".into());
         let (min, max) = mesh.bounds().ok_or_else(empty)?;
         let grid = scene_grid(mesh, cfg).ok_or_else(empty)?;
@@ -159,25 +145,6 @@ impl GroundTruth {
             }
         }
         let region_cells = region.iter().filter(|&&r| r).count();
-        let inflation_m = cfg.robot.radius_m + cfg.map.inflation_margin_m;
-        let fit_limit_m = inflation_m + cfg.sim.random_spawn_margin_m + grid.res;
-        let fit_clearance = square_clearance(&grid, &obstacle, &clearance, fit_limit_m);
-        let body = (
-            cfg.map.band_min_m,
-            cfg.robot.height_m.min(cfg.map.band_max_m),
-        );
-        let fits = disc_fits(
-            mesh,
-            &grid,
-            &triangles,
-            &obstacle,
-            &fit_clearance,
-            robot_layers.clone(),
-            body,
-            inflation_m,
-        );
-        let reachable = flood_fill_moves(&grid, &fits, start);
-        let reachable_cells = reachable.iter().filter(|&&r| r).count();
         let band = grid.layers_in(cfg.map.band_min_m, cfg.map.band_max_m);
         let surface: Vec<u32> = band
             .clone()
@@ -185,18 +152,13 @@ impl GroundTruth {
             .filter(|&(iz, c)| region[c] && occupied[iz * cells + c])
             .map(|(iz, c)| (iz * cells + c) as u32)
             .collect();
-        Ok(GroundTruth {
+        Ok(SceneTruth {
             grid,
             spawn,
             occupied,
             obstacle,
             region,
             region_cells,
-            fit_clearance,
-            fit_limit_m,
-            inflation_m,
-            reachable,
-            reachable_cells,
             triangles,
             band,
             surface,
@@ -216,64 +178,14 @@ impl GroundTruth {
 
     /// Whether the cell belongs to the region: the floor connected to the spawn through
     /// obstacle-free cells, grown by one cell. It ignores the robot's size, so it leaks through gaps
-    /// the robot cannot pass; the metrics use the [reachable](Self::reachable) region instead.
+    /// the robot cannot pass; the metrics use the evaluation layer's reachable region instead.
     pub fn in_region(&self, cell: usize) -> bool {
         self.region[cell]
-    }
-
-    /// Whether the robot can ever stand on the cell (see the module doc).
-    pub fn reachable(&self, cell: usize) -> bool {
-        self.reachable[cell]
-    }
-
-    /// The reachable region, one flag per cell.
-    pub fn reachable_mask(&self) -> &[bool] {
-        &self.reachable
-    }
-
-    pub fn reachable_cells(&self) -> usize {
-        self.reachable_cells
-    }
-
-    /// Floor area of the reachable region, m².
-    pub fn reachable_area_m2(&self) -> f64 {
-        self.reachable_cells as f64 * self.grid.cell_area()
     }
 
     /// The mesh's triangles by the voxels they overlap.
     pub fn voxel_triangles(&self) -> &VoxelTriangles {
         &self.triangles
-    }
-
-    /// The planners' inflation radius, metres.
-    pub fn inflation_m(&self) -> f64 {
-        self.inflation_m
-    }
-
-    /// The reachable cells whose centre keeps at least `inflation_m() + margin_m` from every obstacle
-    /// column's square, ascending. `margin_m` at most `sim.random_spawn_margin_m` (the clearance is
-    /// exact up to there).
-    pub fn spawn_candidates(&self, margin_m: f64) -> Vec<usize> {
-        let need = self.inflation_m + margin_m;
-        debug_assert!(need <= self.fit_limit_m);
-        (0..self.grid.cells())
-            .filter(|&c| self.reachable[c] && self.fit_clearance[c] as f64 >= need)
-            .collect()
-    }
-
-    /// The same ground truth with another spawn in the same reachable region (a random start): only
-    /// the pose changes, so nothing is recomputed. Fails when the pose is not on a reachable cell.
-    pub fn with_spawn(mut self, spawn: Pose2) -> Result<GroundTruth> {
-        match self.grid.cell_of(spawn.position()) {
-            Some(c) if self.reachable[self.grid.index(c)] => {
-                self.spawn = spawn;
-                Ok(self)
-            }
-            _ => Err(Error::usage(format!(
-                "start ({:.2}, {:.2}) is not in the reachable region",
-                spawn.x, spawn.y
-            ))),
-        }
     }
 
     pub fn region_cells(&self) -> usize {
@@ -314,6 +226,11 @@ impl GroundTruth {
     /// (`f32::INFINITY` if there is none).
     pub fn clearance_m(&self, cell: usize) -> f32 {
         self.clearance[cell]
+    }
+
+    /// [`SceneTruth::clearance_m`] of every cell.
+    pub fn clearances(&self) -> &[f32] {
+        &self.clearance
     }
 }
 
@@ -473,138 +390,6 @@ pub fn triangle_box_overlap(centre: [f64; 3], half: f64, tri: &[[f64; 3]; 3]) ->
     true
 }
 
-/// Distance from each cell centre to the nearest obstacle column's square (`[i, i+1)` in cells),
-/// metres. Exact where it is below `limit_m`; elsewhere a lower bound of at least `limit_m`. The
-/// centre-to-centre `clearance` bounds it from above, and from below by half a cell diagonal, so
-/// only cells near an obstacle need the exact local search.
-fn square_clearance(
-    grid: &GridSpec,
-    obstacle: &[bool],
-    clearance: &[f32],
-    limit_m: f64,
-) -> Vec<f32> {
-    let res = grid.res;
-    let half_diag = std::f64::consts::FRAC_1_SQRT_2;
-    (0..grid.cells())
-        .into_par_iter()
-        .map(|i| {
-            let dc = clearance[i] as f64 / res; // cells
-            if !dc.is_finite() || dc - half_diag >= limit_m / res {
-                return if dc.is_finite() {
-                    ((dc - half_diag) * res) as f32
-                } else {
-                    f32::INFINITY
-                };
-            }
-            if obstacle[i] {
-                return 0.0;
-            }
-            let c = grid.cell(i);
-            // The nearest square's centre lies within dc + half a diagonal.
-            let r = (dc + half_diag).ceil() as i32;
-            let mut best = f64::INFINITY;
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
-                        continue;
-                    };
-                    if obstacle[j] {
-                        // Gap from the centre (offset 0.5 into the cell) to the square, per axis.
-                        let gx = (dx.abs() as f64 - 0.5).max(0.0);
-                        let gy = (dy.abs() as f64 - 0.5).max(0.0);
-                        best = best.min(gx * gx + gy * gy);
-                    }
-                }
-            }
-            (best.sqrt() * res) as f32
-        })
-        .collect()
-}
-
-/// Whether the robot's disc, grown to the inflation radius, fits at each cell centre without
-/// touching the mesh between `body.0` and `body.1` (the collision test's height range). Cells whose
-/// centre keeps more than the radius from every obstacle column's square fit for certain (every
-/// triangle part in the body's layers lies inside such squares); the others, near an obstacle, are
-/// decided exactly against the triangles of the obstacle voxels around them.
-#[allow(clippy::too_many_arguments)]
-fn disc_fits(
-    mesh: &TriMesh,
-    grid: &GridSpec,
-    triangles: &VoxelTriangles,
-    obstacle: &[bool],
-    square_clearance: &[f32],
-    body_layers: std::ops::Range<usize>,
-    body: (f64, f64),
-    radius: f64,
-) -> Vec<bool> {
-    let reach = (radius / grid.res).ceil() as i32 + 1;
-    (0..grid.cells())
-        .into_par_iter()
-        .map(|i| {
-            if square_clearance[i] as f64 > radius {
-                return true;
-            }
-            if obstacle[i] {
-                return false;
-            }
-            let c = grid.cell(i);
-            let mut near: Vec<u32> = Vec::new();
-            for dy in -reach..=reach {
-                for dx in -reach..=reach {
-                    let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
-                        continue;
-                    };
-                    if obstacle[j] {
-                        for iz in body_layers.clone() {
-                            near.extend_from_slice(triangles.of(iz * grid.cells() + j));
-                        }
-                    }
-                }
-            }
-            near.sort_unstable();
-            near.dedup();
-            let p = grid.center(c);
-            !near.iter().any(|&t| {
-                let tri = mesh.triangles[t as usize].map(|k| {
-                    let v = mesh.vertices[k as usize];
-                    [v.x as f64, v.y as f64, v.z as f64]
-                });
-                triangle_meets_cylinder(tri, p.x, p.y, radius, body.0, body.1)
-            })
-        })
-        .collect()
-}
-
-/// The cells reachable from `start` through `open` cells under the searches' move rule:
-/// 8-connected, a diagonal step only when both orthogonal cells beside it are open. `start` itself is
-/// included even when it is not open (a spawn just inside an inflation band can still drive out).
-fn flood_fill_moves(grid: &GridSpec, open: &[bool], start: usize) -> Vec<bool> {
-    let mut seen = vec![false; grid.cells()];
-    seen[start] = true;
-    let mut stack = vec![start];
-    let is_open = |c: Cell| grid.checked_index(c).filter(|&j| open[j]);
-    while let Some(i) = stack.pop() {
-        let c = grid.cell(i);
-        for (dx, dy) in NEIGHBOURS_8 {
-            let Some(j) = is_open(Cell::new(c.x + dx, c.y + dy)) else {
-                continue;
-            };
-            if dx != 0
-                && dy != 0
-                && (is_open(Cell::new(c.x + dx, c.y)).is_none()
-                    || is_open(Cell::new(c.x, c.y + dy)).is_none())
-            {
-                continue;
-            }
-            if !seen[j] {
-                seen[j] = true;
-                stack.push(j);
-            }
-        }
-    }
-    seen
-}
-
 /// The 4-connected obstacle-free cells reachable from `start`.
 fn flood_fill_4(grid: &GridSpec, obstacle: &[bool], start: usize) -> Vec<bool> {
     let mut seen = vec![false; grid.cells()];
@@ -676,57 +461,6 @@ fn auto_spawn(grid: &GridSpec, obstacle: &[bool], clearance: &[f32]) -> Result<P
     Ok(Pose2::new(p.x, p.y, 0.0))
 }
 
-/// What `scene info` prints.
-#[derive(Clone, Debug, Serialize)]
-pub struct SceneInfo {
-    pub name: String,
-    pub path: String,
-    pub source: String,
-    pub content_hash: String,
-    pub bounds_min: [f64; 3],
-    pub bounds_max: [f64; 3],
-    pub vertices: usize,
-    pub triangles: usize,
-    /// The original floor height before the mesh was moved to z = 0, metres.
-    pub floor_z: f64,
-    /// Floor area the robot can reach from the spawn, m².
-    pub reachable_area_m2: f64,
-    /// Volume the camera could observe from the reachable floor, m³ (filled in by the caller, which
-    /// owns the sensor; 0 until then).
-    pub observable_volume_m3: f64,
-    /// Ground-truth surface voxels in the band among the observable ones.
-    pub observable_surface_voxels: usize,
-    /// Camera positions sampled for the observable volume.
-    pub observable_positions: usize,
-    pub spawn: Pose2,
-    /// Whether the spawn came from the file (true) or was chosen automatically.
-    pub spawn_from_file: bool,
-    pub grid: GridSpec,
-}
-
-/// Summarises a scene and its ground truth.
-pub fn info(scene: &Scene, gt: &GroundTruth) -> SceneInfo {
-    let (min, max) = scene.mesh.bounds().unwrap_or_default();
-    SceneInfo {
-        name: scene.name.clone(),
-        path: scene.path.display().to_string(),
-        source: scene.source.clone(),
-        content_hash: scene.content_hash.clone(),
-        bounds_min: [min.x, min.y, min.z],
-        bounds_max: [max.x, max.y, max.z],
-        vertices: scene.mesh.vertices.len(),
-        triangles: scene.mesh.triangles.len(),
-        floor_z: scene.floor_z,
-        reachable_area_m2: gt.reachable_area_m2(),
-        observable_volume_m3: 0.0,
-        observable_surface_voxels: 0,
-        observable_positions: 0,
-        spawn: gt.spawn,
-        spawn_from_file: scene.spawn.is_some(),
-        grid: gt.grid,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -763,7 +497,7 @@ mod tests {
     fn box_room_known_answers() {
         let cfg = Config::default();
         let mesh = box_room();
-        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        let gt = SceneTruth::build(&mesh, None, &cfg).unwrap();
         // Grid: 4.2 × 3.2 m + 0.5 m margin each side → 52 × 42 cells, 18 layers; 3.2 in f32 is
         // 3.2000000477, so y rounds outwards to one more (empty) row.
         assert_eq!((gt.grid.nx, gt.grid.ny, gt.grid.nz), (52, 43, 18));
@@ -798,18 +532,18 @@ mod tests {
     fn spawn_validation_names_the_spawn() {
         let cfg = Config::default();
         let mesh = box_room();
-        let e = GroundTruth::build(&mesh, Some(Pose2::new(9.0, 1.0, 0.0)), &cfg).unwrap_err();
+        let e = SceneTruth::build(&mesh, Some(Pose2::new(9.0, 1.0, 0.0)), &cfg).unwrap_err();
         assert_eq!(
             e.to_string(),
             "spawn (9, 1) is outside the scene bounds [0.00, 4.20] × [0.00, 3.20]"
         );
         assert_eq!(e.exit_code(), 2);
-        let e = GroundTruth::build(&mesh, Some(Pose2::new(0.25, 1.5, 0.0)), &cfg).unwrap_err();
+        let e = SceneTruth::build(&mesh, Some(Pose2::new(0.25, 1.5, 0.0)), &cfg).unwrap_err();
         assert_eq!(
             e.to_string(),
             "spawn (0.25, 1.5) is inside an obstacle or closer than the robot radius (0.25 m) to one (clearance 0.10 m)"
         );
-        let gt = GroundTruth::build(&mesh, Some(Pose2::new(1.0, 1.0, 0.3)), &cfg).unwrap();
+        let gt = SceneTruth::build(&mesh, Some(Pose2::new(1.0, 1.0, 0.3)), &cfg).unwrap();
         assert_eq!(gt.spawn, Pose2::new(1.0, 1.0, 0.3));
         assert_eq!(gt.region_cells(), 41 * 31);
     }
@@ -823,14 +557,14 @@ mod tests {
         // A wall whose face lies inside a cell: x = 2.08, in the cell 2.0–2.1 (centre 2.05).
         mesh.push_box([2.0, 0.5, 0.0], [2.08, 2.5, 2.5]);
         // x = 2.32 is in the cell centred at 2.35: 0.30 m between centres, 0.24 m to the face.
-        let e = GroundTruth::build(&mesh, Some(Pose2::new(2.32, 1.5, 0.0)), &cfg).unwrap_err();
+        let e = SceneTruth::build(&mesh, Some(Pose2::new(2.32, 1.5, 0.0)), &cfg).unwrap_err();
         assert_eq!(
             e.to_string(),
             "spawn (2.32, 1.5) puts the robot's disc (radius 0.25 m, 0.1–1.2 m high) into the scene: move it farther from the nearest surface"
         );
         assert_eq!(e.exit_code(), 2);
         // 0.27 m from the face it is accepted.
-        let gt = GroundTruth::build(&mesh, Some(Pose2::new(2.35, 1.5, 0.0)), &cfg).unwrap();
+        let gt = SceneTruth::build(&mesh, Some(Pose2::new(2.35, 1.5, 0.0)), &cfg).unwrap();
         assert_eq!(gt.spawn, Pose2::new(2.35, 1.5, 0.0));
     }
 
@@ -841,7 +575,7 @@ mod tests {
         let mut mesh = box_room();
         mesh.push_box([1.0, 1.0, 0.72], [1.6, 1.6, 0.76]);
         mesh.push_box([3.0, 0.1, 1.4], [4.1, 0.4, 1.7]);
-        let gt = GroundTruth::build(&mesh, None, &cfg).unwrap();
+        let gt = SceneTruth::build(&mesh, None, &cfg).unwrap();
         let cell = |x: f64, y: f64| gt.grid.index(gt.grid.cell_of(Point2::new(x, y)).unwrap());
         assert!(gt.obstacle_column(cell(1.3, 1.3)));
         assert!(!gt.obstacle_column(cell(3.5, 0.25)));
@@ -853,8 +587,8 @@ mod tests {
     fn results_do_not_depend_on_thread_count() {
         let cfg = Config::default();
         let mesh = box_room();
-        let one = crate::util::on_threads(1, || GroundTruth::build(&mesh, None, &cfg).unwrap());
-        let many = crate::util::on_threads(3, || GroundTruth::build(&mesh, None, &cfg).unwrap());
+        let one = crate::util::on_threads(1, || SceneTruth::build(&mesh, None, &cfg).unwrap());
+        let many = crate::util::on_threads(3, || SceneTruth::build(&mesh, None, &cfg).unwrap());
         assert_eq!(one.occupied, many.occupied);
         assert_eq!(one.surface, many.surface);
         assert_eq!(one.spawn, many.spawn);

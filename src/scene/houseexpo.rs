@@ -227,7 +227,7 @@ mod tests {
         let union_area = union_cells as f64 * 0.0025;
         let cfg = Config::default();
         let s = crate::scene::load(&path, &cfg.scene).unwrap();
-        let gt = crate::scene::ground_truth::GroundTruth::build(&s.mesh, None, &cfg).unwrap();
+        let gt = crate::scene::ground_truth::SceneTruth::build(&s.mesh, None, &cfg).unwrap();
         let area = gt.region_cells() as f64 * gt.grid.cell_area();
         assert!((outline_area - 116.6).abs() < 0.1, "{outline_area}");
         // The region is the outline's interior plus a one-cell ring on the walls.

@@ -11,7 +11,7 @@ pub mod houseexpo;
 pub(crate) mod mesh;
 pub mod rosmap;
 
-pub use ground_truth::{info, GroundTruth, VoxelTriangles};
+pub use ground_truth::{SceneTruth, VoxelTriangles};
 pub use mesh::TriMesh;
 
 use crate::config::SceneConfig;
@@ -42,7 +42,7 @@ pub struct Scene {
 
 /// The marker of a spawn line: `# tensorscout spawn X Y YAW` in OBJ, `comment tensorscout spawn …`
 /// in a PLY header.
-const SPAWN_MARKER: &str = "tensorscout spawn";
+pub(crate) const SPAWN_MARKER: &str = "tensorscout spawn";
 
 /// Loads a scene file, dispatching on its extension (`.obj`, `.ply`, `.gltf`/`.glb`, `.yaml`/`.yml`,
 /// `.json`).
@@ -120,26 +120,10 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
     })
 }
 
-/// The ground truth of `scene` from `spawn`, else the scene's own spawn line, else automatic. A
-/// spawn line that the ground truth refuses (inside a wall) is named with its file.
-pub fn build_ground_truth(
-    scene: &Scene,
-    spawn: Option<Pose2>,
-    cfg: &crate::Config,
-) -> Result<GroundTruth> {
-    GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg).map_err(|e| match (spawn, e) {
-        (None, Error::Usage(msg)) if scene.spawn.is_some() => Error::usage(format!(
-            "{}: the file's `{SPAWN_MARKER}` line: {msg}",
-            scene.path.display()
-        )),
-        (_, e) => e,
-    })
-}
-
 /// A warning when the explorable region reaches the border of the ground-truth grid: the scene is
 /// open (or has no enclosed free space), so the spawn stands outside any room and the robot can
 /// drive off into the open.
-pub fn open_region_warning(scene: &Scene, gt: &GroundTruth) -> Option<String> {
+pub fn open_region_warning(scene: &Scene, gt: &SceneTruth) -> Option<String> {
     let g = &gt.grid;
     let on_border = (0..g.cells()).any(|i| {
         let c = g.cell(i);
@@ -828,7 +812,7 @@ f 2 3 7 6
     #[test]
     fn shipped_scenes_load_with_valid_spawns() {
         use crate::scene::generate::{generate, shipped_generated};
-        use crate::scene::ground_truth::GroundTruth;
+        use crate::scene::ground_truth::SceneTruth;
         let config = Config::default();
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
         let mut names: Vec<&str> = shipped_generated().iter().map(|g| g.0).collect();
@@ -838,7 +822,7 @@ f 2 3 7 6
             let spawn = s
                 .spawn
                 .unwrap_or_else(|| panic!("{name} has no spawn line"));
-            let gt = GroundTruth::build(&s.mesh, Some(spawn), &config).unwrap();
+            let gt = SceneTruth::build(&s.mesh, Some(spawn), &config).unwrap();
             let cell = gt.grid.index(gt.grid.cell_of(spawn.position()).unwrap());
             assert!(
                 gt.clearance_m(cell) >= 0.5,
@@ -847,7 +831,7 @@ f 2 3 7 6
             );
             let area = gt.region_cells() as f64 * gt.grid.cell_area();
             assert!((30.0..450.0).contains(&area), "{name}: region {area} m²");
-            let auto = GroundTruth::build(&s.mesh, None, &config).unwrap();
+            let auto = SceneTruth::build(&s.mesh, None, &config).unwrap();
             assert_eq!(auto.region_cells(), gt.region_cells(), "{name}");
             assert!(
                 std::fs::metadata(&s.path).unwrap().len() < 400_000,

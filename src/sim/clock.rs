@@ -1,10 +1,10 @@
 //! Wall-clock timing of the step loop's stages, by name rather than by position in an array of
 //! instants.
 
-use super::metrics::StageTimes;
+use super::result::StageTimes;
 use std::time::Instant;
 
-/// The stages of one step, in data-flow order (their names are [`super::metrics::STAGES`]).
+/// The stages of one step, in data-flow order (their names are [`super::result::STAGES`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
     Sense,
@@ -26,7 +26,7 @@ impl Stage {
 
     /// The stage's name in results and logs.
     pub fn name(self) -> &'static str {
-        super::metrics::STAGES[self as usize]
+        super::result::STAGES[self as usize]
     }
 }
 

@@ -1,13 +1,12 @@
-//! The simulator: robot, motion executor, the step loop and its metrics.
+//! The simulator: robot, motion executor, the step loop and the run's result.
 
 pub(crate) mod clock;
-pub(crate) mod metrics;
 pub(crate) mod motion;
-pub mod observable;
+pub(crate) mod result;
 pub(crate) mod robot;
 pub(crate) mod run;
 
+pub use crate::eval::{CacheOutcome, ObservableCache, ObservableSet};
 pub use clock::{Stage, StageClock};
-pub use metrics::{RunResult, Termination};
-pub use observable::{CacheOutcome, ObservableCache, ObservableSet};
+pub use result::{CurveSample, RunResult, StageStats, Termination, STAGES};
 pub use run::{run, NoObserver, Observer, RunOutput, Simulation, StepOutcome, StepView, World};

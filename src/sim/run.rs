@@ -1,19 +1,19 @@
 //! The step loop: sense → map → field → plan → motion → collision check → metrics, at a fixed `dt`.
 
 use super::clock::{Stage, StageClock};
-use super::metrics::{
-    frontiers_left, surface_coverage, unseen_patches, CurveSample, ExploredVolume, RunResult,
-    Termination,
-};
 use super::motion::{MotionExecutor, MotionParams, MotionStatus};
-use super::observable::{CacheOutcome, ObservableCache, ObservableParams, ObservableSet};
+use super::result::{CurveSample, RunResult, Termination};
 use super::robot::Robot;
 use crate::config::{Config, DepthRenderer, SpawnMode};
+use crate::eval::{
+    frontiers_left, surface_coverage, unseen_patches, CacheOutcome, ExploredVolume, GroundTruth,
+    ObservableCache, ObservableParams, ObservableSet,
+};
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
 use crate::plan::{Action, Plan, PlanContext, PlanParams, Planner, PlannerKind};
-use crate::scene::{GroundTruth, Scene};
+use crate::scene::Scene;
 use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
 use nalgebra::Point2;
@@ -112,7 +112,7 @@ impl World {
                 "an explicit start pose and `sim.spawn = \"random\"` exclude each other",
             ));
         }
-        let ground_truth = crate::scene::build_ground_truth(scene, spawn, cfg)?;
+        let ground_truth = crate::eval::build_ground_truth(scene, spawn, cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
         let (observable, observable_source) = cache.get_or_compute(
             scene,
