@@ -525,6 +525,23 @@ mod tests {
     use super::*;
     use crate::grid::Cell;
 
+    /// The order of the goal sources is what the module doc promises: what must precede the tour's
+    /// frontier does, escapes come only once no tour is left, and the end of the run, which always
+    /// answers, comes last, once.
+    #[test]
+    fn goal_sources_are_asked_in_their_promised_order() {
+        let at = |s: GoalSource| GOAL_SOURCES.iter().position(|&x| x == s).unwrap();
+        // A blind-zone frontier is looked at before the robot drives away along the tour.
+        assert!(at(GoalSource::BlindZone) < at(GoalSource::Tour));
+        // A frontier that needs a viewpoint look is not approached again instead.
+        assert!(at(GoalSource::Viewpoint) < at(GoalSource::Tour));
+        assert!(at(GoalSource::Tour) < at(GoalSource::Escape));
+        assert_eq!(GOAL_SOURCES.last(), Some(&GoalSource::EndOfRun));
+        for (i, s) in GOAL_SOURCES.iter().enumerate() {
+            assert!(!GOAL_SOURCES[i + 1..].contains(s), "{s:?} twice");
+        }
+    }
+
     #[test]
     fn an_escape_may_squeeze_only_beside_where_the_robot_has_been() {
         let grid = GridSpec::covering(Point2::new(0.0, 0.0), Point2::new(2.0, 2.0), 1.0, 0.1);
