@@ -396,12 +396,12 @@ impl Thp {
             self,
             |thp| {
                 let given_up = |i| thp.visits.is_unobservable(i);
-                distant_view(map, df, &segment_cells, given_up, view_m)
+                distant_view(map, df, segment_cells, given_up, view_m)
             },
             |thp| thp.next_volume_view(ctx, costs, df),
             |thp| {
                 !(thp.visits)
-                    .reopen_seeable(map, df, &segment_cells, camera, |_| false)
+                    .reopen_seeable(map, df, segment_cells, camera, |_| false)
                     .is_empty()
             },
         );
