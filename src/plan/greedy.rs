@@ -3,9 +3,10 @@
 //!
 //! Yamauchi's method, as this code reads it for a forward depth camera (the `published` profile):
 //! the robot drives toward the frontier segment nearest by path cost (one Dijkstra field from the
-//! robot), stops `greedy.view_distance_m` short of it along the path (a forward camera does not see
-//! the floor in front of it, so a look at a frontier is taken from a step back), turns once in
-//! place to look (Yamauchi's sensor sweep on arrival), and re-plans as soon as its target segment
+//! robot), stops `greedy.view_distance_m` short of it along the path (a forward camera sees nothing
+//! of the floor right in front of it, so the look is taken from a step back; at the default mount
+//! it sees the floor from 1.45 m), turns once in place to look (Yamauchi's sensor sweep on
+//! arrival), and re-plans as soon as its target segment
 //! has been seen or its path is blocked by a newly seen obstacle (not counted as a failure). A
 //! frontier still open after that look is dropped, as is one the robot fails to reach
 //! (`additions.approach_attempts` = 1: the cells within `additions.unreached_give_up_m` of its aim).
