@@ -712,10 +712,7 @@ impl Config {
     /// assert!(e.to_string().contains("map.voxel_m"));
     /// ```
     pub fn load(file: Option<&Path>, overrides: &[String]) -> Result<Config> {
-        let user = match file {
-            Some(path) => Some(read_user_file(path)?),
-            None => None,
-        };
+        let user = file.map(read_user_file).transpose()?;
         // The file and the overrides set the profile like any key; its values go under them, so
         // that a key set explicitly wins over the profile's.
         let resolve = |mut tree: toml::Table| -> Result<toml::Table> {

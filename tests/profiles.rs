@@ -15,39 +15,38 @@ fn stat(r: &tensorscout::sim::RunResult, key: &str) -> f64 {
     r.planner_stats.get(key).copied().unwrap_or(0.0)
 }
 
+/// The counters of the additions GREEDY and THP share.
+const SHARED: [&str; 7] = [
+    "viewpoint_looks",
+    "reopened",
+    "volume_views",
+    "distant_views",
+    "path_m_blind_zone",
+    "path_m_distant_view",
+    "path_m_volume_view",
+];
+
 /// The counters of the additions, per planner: what the published profile must leave at zero.
-fn addition_stats(planner: PlannerKind) -> &'static [&'static str] {
+fn addition_stats(planner: PlannerKind) -> Vec<&'static str> {
     match planner {
-        PlannerKind::Greedy => &[
-            "viewpoint_looks",
-            "reopened",
-            "volume_views",
-            "distant_views",
-            "path_m_blind_zone",
-            "path_m_distant_view",
-            "path_m_volume_view",
-            "escapes",
-        ],
-        PlannerKind::Thp => &[
-            "viewpoint_looks",
-            "reopened",
-            "volume_views",
-            "distant_views",
-            "path_m_blind_zone",
-            "path_m_distant_view",
-            "path_m_volume_view",
-            "path_m_escape",
-            "escapes",
-            "looks_when_blocked",
-            "advection_stalls",
-        ],
-        PlannerKind::Nbv => &[
+        PlannerKind::Greedy => SHARED.to_vec(),
+        PlannerKind::Thp => [
+            &SHARED[..],
+            &[
+                "path_m_escape",
+                "escapes",
+                "looks_when_blocked",
+                "advection_stalls",
+            ],
+        ]
+        .concat(),
+        PlannerKind::Nbv => vec![
             "viewpoint_looks",
             "reopened",
             "distant_views",
             "anchor_tries",
         ],
-        PlannerKind::Tensor => &[],
+        PlannerKind::Tensor => Vec::new(),
     }
 }
 
