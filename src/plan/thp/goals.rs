@@ -17,7 +17,7 @@ pub(super) enum Choice {
 /// clear gap, it took THP through doors narrower than the planners' inflation into rooms no planner
 /// may plan into (outside the metrics' reachable region): 12 of 99 runs on each half of the real
 /// plans, 2–34 % of their explored volume outside the observable set, often into a pocket that then
-/// closed (BENCHMARKS.md).
+/// closed (docs/experiments.md).
 #[derive(Clone, Debug, Default)]
 pub(super) struct Trail(Vec<bool>);
 
@@ -111,8 +111,7 @@ impl Thp {
     /// blind zone, so its second approach (all the way, [`FrontierVisits::cut_short`]) comes next,
     /// while the robot is there. Left out, it emptied its group, its anchor counted as visited, and
     /// once the robot was away it came back as a new anchor: the robot shuttled between two such
-    /// frontiers for the rest of a run (`plan_115c3a7a64` seed 2, random start: 110 m driven, 71 m of it
-    /// after t = 200 s; 36 m with this rule).
+    /// frontiers for the rest of a run (on one real plan, 110 m driven where this rule drives 36 m).
     pub(super) fn frontiers(
         &self,
         map: &Map,
@@ -478,7 +477,7 @@ impl Thp {
     /// into a pocket, or obstacles seen since inflated the cells around it): the escape search
     /// ([`plan::escape_path`]) to the nearest enterable cell within [`WAY_OUT_M`], counted as an
     /// escape; a look around if there is none. Only ever looking around there kept the robot turning
-    /// in place until the run ended `stuck` (`plan_18b39b374f`, seed 2).
+    /// in place until the run ended `stuck`.
     fn way_out(&mut self, ctx: &mut PlanContext) -> Choice {
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();

@@ -12,7 +12,7 @@
 //!    paper leaves (`thp.tour_start`, [`tour`]): Alg. 1 says "the anchor nearest the robot", which
 //!    can lie behind the robot while the rest of the tour lies ahead; `"robot"` makes the robot's own
 //!    cell the fixed start, so the first group is the one the whole tour favours. The paper's reading
-//!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs
+//!    is the default: on real plans the robot start drove slightly farther (docs/experiments.md). Costs
 //!    are path costs under the shared search cost rule between the nodes' anchors (Eq. 6's
 //!    dist(p_i, p_j); `thp.tour_costs`), an anchor off the reachable floor replaced by its group's
 //!    least-cost frontier. They come from one Dijkstra per node
@@ -286,8 +286,7 @@ impl Thp {
         // aim. A goal outside the tour (a step back for the blind zone, a look through a gap)
         // stays through new anchors too; the tour is re-solved once it is done. Re-chosen at every
         // segment end, two blind-zone frontiers whose viewpoints lie beside each other sent the
-        // robot back and forth between them without a look until the run was stuck
-        // (`plan_e0640c1cbe` seed 3 with a 2 cm arrival, BENCHMARKS.md).
+        // robot back and forth between them without a look until the run was stuck.
         let keep_goal = self.mode.goal().is_some_and(|g| {
             g.visit.is_open(ctx.map)
                 && !g.final_segment
