@@ -118,7 +118,8 @@ fn thp_finishes_every_shipped_scene() {
 fn tensor_with_its_greedy_fallback_finishes_every_shipped_scene() {
     let mut cfg = Config::default();
     cfg.tensor.fallback = true;
-    let failures = finishes_every_scene_with(&cfg, PlannerKind::Tensor, 0.0);
+    // It reached 0.987 or more on every shipped scene (2026-11-29).
+    let failures = finishes_every_scene_with(&cfg, PlannerKind::Tensor, 0.95);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
@@ -185,7 +186,8 @@ fn saw_nothing_new_at_the_end(r: &tensorscout::sim::RunResult, cfg: &Config) -> 
 #[test]
 #[ignore = "heavy tier: cargo test -- --ignored"]
 fn nbv_finishes_every_shipped_scene() {
-    let failures = finishes_every_scene(PlannerKind::Nbv, 0.0);
+    // It reached 0.987 or more on every shipped scene (2026-11-29).
+    let failures = finishes_every_scene(PlannerKind::Nbv, 0.95);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 

@@ -30,7 +30,11 @@ fn smoke(format: Format, cases: u64) {
         "{}: no mutated case was accepted",
         format.name()
     );
-    assert!(rejected > 0, "{}: no mutated case was refused", format.name());
+    assert!(
+        rejected > 0,
+        "{}: no mutated case was refused",
+        format.name()
+    );
 }
 
 #[test]

@@ -271,5 +271,8 @@ fn architecture_md_shows_the_module_graph_as_it_is() {
         .filter(|(m, rest)| !m.trim().contains(' ') && !rest.contains('→'))
         .map(|(m, rest)| (m.trim().to_string(), rest.trim().to_string()))
         .collect();
-    assert_eq!(documented, actual, "ARCHITECTURE.md's module graph is out of date");
+    assert_eq!(
+        documented, actual,
+        "ARCHITECTURE.md's module graph is out of date"
+    );
 }

@@ -48,7 +48,11 @@ fn readme_results_table_equals_the_committed_summary() {
         .filter(|l| l.starts_with('|') && !l.starts_with("|---") && !l.contains("completeness"))
         .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
         .collect();
-    assert_eq!(rows.len(), verdicts.len(), "one row per planner and profile");
+    assert_eq!(
+        rows.len(),
+        verdicts.len(),
+        "one row per planner and profile"
+    );
     for row in rows {
         let [planner, profile, completeness, path] = row[..] else {
             panic!("a row of four cells: {row:?}");
@@ -89,8 +93,15 @@ fn readme_results_count_the_runs_the_summary_holds() {
     assert!(readme.contains("over the 198 runs"));
     assert!(summary["failures"].as_array().unwrap().is_empty());
     // "0 collided": no run of any cell collided.
-    assert!(readme.contains("0 runs failed\nand 0 collided") || readme.contains("0 runs failed and 0 collided"));
+    assert!(
+        readme.contains("0 runs failed\nand 0 collided")
+            || readme.contains("0 runs failed and 0 collided")
+    );
     for cell in summary["cells"].as_array().unwrap() {
-        assert_eq!(cell["collisions"], 0, "{} {}", cell["scene"], cell["planner"]);
+        assert_eq!(
+            cell["collisions"], 0,
+            "{} {}",
+            cell["scene"], cell["planner"]
+        );
     }
 }
