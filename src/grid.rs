@@ -202,6 +202,14 @@ pub fn floor_i64(x: f64) -> i64 {
     floor_both(x).0
 }
 
+/// Voxel layers `a..=b` (or `b..=a`) of a column as a bit mask, one bit a layer: how the column
+/// sweeps of the map and of the observable set mark a ray's span of a column (at most 64 layers).
+#[inline(always)]
+pub fn layer_span(a: usize, b: usize) -> u64 {
+    let (a, b) = (a.min(b), a.max(b));
+    (u64::MAX >> (63 - b)) & (u64::MAX << a)
+}
+
 /// [`floor_i64`]`(x)`, and the same as an `f64` taken from the conversion already made rather than
 /// converted back. `(l, lf)` has `lf == l as f64` exactly.
 #[inline(always)]
@@ -304,6 +312,19 @@ fn edt_1d(f: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn layer_span_sets_exactly_the_layers_between_its_ends() {
+        assert_eq!(layer_span(2, 4), 0b11100);
+        assert_eq!(layer_span(4, 2), 0b11100);
+        assert_eq!(layer_span(5, 5), 1 << 5);
+        assert_eq!(layer_span(0, 63), u64::MAX);
+        assert_eq!(layer_span(63, 63), 1 << 63);
+        for (a, b) in [(0, 0), (3, 17), (40, 12)] {
+            let expect: u64 = (a.min(b)..=a.max(b)).map(|l| 1u64 << l).sum();
+            assert_eq!(layer_span(a, b), expect, "{a}..={b}");
+        }
+    }
     use rand::{Rng, SeedableRng};
 
     #[test]

@@ -42,7 +42,7 @@
 //! cast frame here instead does not give the observable set's voxels bit for bit: see that module.)
 
 use super::occupancy::hit_voxel_at;
-use crate::grid::{floor_both, floor_i64, GridSpec, TIE_M};
+use crate::grid::{floor_both, floor_i64, layer_span, GridSpec, TIE_M};
 use crate::sensor::DepthFrame;
 use nalgebra::Point3;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
@@ -137,13 +137,6 @@ fn min_f64(a: f64, b: f64) -> f64 {
     } else {
         a
     }
-}
-
-/// Layers `a..=b` (either order) as a mask.
-#[inline(always)]
-fn span(a: usize, b: usize) -> u64 {
-    let (a, b) = (a.min(b), a.max(b));
-    (u64::MAX >> (63 - b)) & (u64::MAX << a)
 }
 
 impl<'a> Sweep<'a> {
@@ -553,7 +546,7 @@ impl<'a> Sweep<'a> {
                         g += 1;
                     }
                 }
-                here |= span(lo, hi);
+                here |= layer_span(lo, hi);
             }
             debug_assert_eq!(e, enders.len());
             s.marks.push((step.cell, here));

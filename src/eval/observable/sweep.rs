@@ -3,7 +3,7 @@
 //! [`VoxelCaster::sweep_column`]).
 
 use super::caster::VoxelCaster;
-use crate::grid::{floor_both, floor_i64, TIE_M};
+use crate::grid::{floor_both, floor_i64, layer_span, TIE_M};
 use crate::sensor::DepthCamera;
 use nalgebra::{Point3, Vector3};
 
@@ -60,13 +60,6 @@ pub(super) struct ColumnSetup {
     pub(super) h_max: f64,
     /// The layers whose occupied voxels make a run be walked ray by ray.
     pub(super) occ_mask: u64,
-}
-
-/// Layers `a..=b` (or `b..=a`), one bit each.
-#[inline]
-pub(super) fn layer_span(a: usize, b: usize) -> u64 {
-    let (a, b) = (a.min(b), a.max(b));
-    (u64::MAX >> (63 - b)) & (u64::MAX << a)
 }
 
 /// One floor cell of a pixel column's path: the cell, and the grid line the path leaves it by.
