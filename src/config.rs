@@ -378,7 +378,7 @@ pub enum TourCosts {
     Frontiers,
 }
 
-/// THP: anchors, online TSP, frontier grouping and splitting, advection (seed 000 §3.3–3.5).
+/// THP: anchors, online TSP, frontier grouping and splitting, advection (THP, Xi et al., CVM 2024, §3.3–3.5).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ThpConfig {
@@ -401,7 +401,7 @@ pub struct ThpConfig {
     pub view_distance_m: f64,
 }
 
-/// TENSOR: time-varying field, advection, topology-graph routing (seed 001 §4–6).
+/// TENSOR: time-varying field, advection, topology-graph routing (Xu et al., ACM TOG 2017, §4–6).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TensorConfig {
@@ -416,7 +416,7 @@ pub struct TensorConfig {
     pub fallback: bool,
 }
 
-/// NBV-TSP: coverage sampling, heuristic gain, GA over a fixed-start open TSP (seed 002).
+/// NBV-TSP: coverage sampling, heuristic gain, GA over a fixed-start open TSP (Meng et al., RA-L 2017).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NbvConfig {

@@ -150,7 +150,7 @@ fn tensor_as_published_reports_why_it_stops() {
             .copied()
             .unwrap_or(0.0);
         let cause_ok = match r.termination {
-            Termination::Stuck => no_route == 1.0 || r.sim_time_s >= cfg.sim.stuck_timeout_s.get(),
+            Termination::Stuck => no_route == 1.0 || saw_nothing_new_at_the_end(r, &cfg),
             Termination::Complete | Termination::Budget => no_route == 0.0,
             _ => false,
         };
@@ -164,6 +164,22 @@ fn tensor_as_published_reports_why_it_stops() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Whether the run's explored volume grew by less than `sim.stuck_min_gain_m3` over its last
+/// `sim.stuck_timeout_s`, read from its curve: the stuck rule's own condition, checked on what the
+/// run recorded.
+fn saw_nothing_new_at_the_end(r: &tensorscout::sim::RunResult, cfg: &Config) -> bool {
+    let since = r.sim_time_s - cfg.sim.stuck_timeout_s.get();
+    let (Some(before), Some(last)) = (
+        // The first sample from `since` on: explored volume never shrinks, so from there to the end
+        // it grew by no more than since the last gain the stuck rule counted.
+        r.curve.iter().find(|c| c.t_s >= since - 1e-9),
+        r.curve.last(),
+    ) else {
+        return false;
+    };
+    last.explored_volume_m3 - before.explored_volume_m3 < cfg.sim.stuck_min_gain_m3.get() + 1e-9
 }
 
 #[test]

@@ -85,8 +85,8 @@ pub struct RunSpec {
     pub planner: PlannerKind,
 }
 
-/// Expands `--scenes` arguments: a folder gives its scene files (sorted, not recursive), a file
-/// itself. Sorted and without duplicates.
+/// Expands `--scenes` arguments: a folder gives its scene files (sorted, not recursive), a list
+/// file (`.txt`) the scenes it names, any other file itself. Sorted and without duplicates.
 pub fn collect_scenes(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = BTreeSet::new();
     for a in args {
@@ -102,6 +102,8 @@ pub fn collect_scenes(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
                     out.insert(p);
                 }
             }
+        } else if is_scene_list(a) {
+            out.extend(read_scene_list(a)?);
         } else {
             // A missing file is kept: it becomes a failed row, not an abort of the whole batch.
             out.insert(a.clone());
@@ -111,6 +113,55 @@ pub fn collect_scenes(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
         return Err(Error::usage("--scenes: no scene files found"));
     }
     Ok(out.into_iter().collect())
+}
+
+/// Whether `path` names a list of scenes (a `.txt` file) rather than a scene.
+fn is_scene_list(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"))
+}
+
+/// Largest scene list read, bytes: a list names scenes, one a line.
+const SCENE_LIST_MAX_BYTES: u64 = 1 << 20;
+
+/// The scenes a list file names: one path a line, relative to the list's folder; blank lines and
+/// `#` comments are skipped. A named scene that does not exist is an error naming the list's line,
+/// since a typo in a list would otherwise silently shrink the batch to a failed row.
+fn read_scene_list(list: &Path) -> Result<Vec<PathBuf>> {
+    let meta = std::fs::metadata(list).map_err(|e| Error::io(list, e))?;
+    if !meta.is_file() || meta.len() > SCENE_LIST_MAX_BYTES {
+        return Err(Error::usage(format!(
+            "--scenes: {} is not a scene list (a regular text file of at most 1 MiB)",
+            list.display()
+        )));
+    }
+    let text = std::fs::read_to_string(list).map_err(|e| Error::io(list, e))?;
+    let folder = list.parent().unwrap_or(Path::new(""));
+    let mut scenes = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let entry = line.split('#').next().unwrap_or("").trim();
+        if entry.is_empty() {
+            continue;
+        }
+        let path = folder.join(entry);
+        if !path.is_file() {
+            return Err(Error::usage(format!(
+                "--scenes: {}:{}: no scene file {}",
+                list.display(),
+                n + 1,
+                path.display()
+            )));
+        }
+        scenes.push(path);
+    }
+    if scenes.is_empty() {
+        return Err(Error::usage(format!(
+            "--scenes: {} names no scene",
+            list.display()
+        )));
+    }
+    Ok(scenes)
 }
 
 /// Every run of the batch, sorted by scene, planner and seed, then cut to the shard.

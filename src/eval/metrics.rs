@@ -1,4 +1,4 @@
-//! Run metrics as DESIGN.md defines them: explored volume and completeness (counted incrementally
+//! Run metrics (the guide's "Metrics" section defines them): explored volume and completeness (counted incrementally
 //! from the voxels each frame makes known), surface coverage, the unseen observable patches and the
 //! frontiers left at the end. Path length, collisions and stage timings are the simulator's
 //! (`sim::RunResult`).

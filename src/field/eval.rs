@@ -1,8 +1,9 @@
 //! Evaluating THP Eq. 11 on a grid: the brute-force f64 reference, and the fast incremental evaluator.
 //!
 //! Both evaluate `Σ_c exp(-d(‖p−c‖² − d_min(p)²)/σ²) ρ_c (cos 2θ_c, sin 2θ_c)`, i.e. Eq. 11 scaled at
-//! each point by `exp(d·d_min²/σ²)` (DESIGN.md), which keeps magnitudes O(1) everywhere and changes
-//! no direction.
+//! each point by `exp(d·d_min²/σ²)`, with `d_min(p)` the distance from `p` to its nearest
+//! constraint: the factor is the same for every term at `p`, so it changes no direction, and it keeps
+//! magnitudes O(1) where the plain sum would underflow far from every constraint.
 //!
 //! The fast evaluator works in square tiles of 8×8 cells. For a tile it finds the nearest-constraint
 //! distance `D0` from the tile centre, gathers (from 8×8-cell bins) every constraint within

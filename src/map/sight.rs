@@ -32,7 +32,7 @@ pub enum Sight {
 ///
 /// Testing the centre alone, through whole occupied voxels, found no viewpoint for most unseen
 /// voxels left beside frontiers at `complete` on the dev plans, while the ground truth's camera saw
-/// them from cells the robot's map held standable (BENCHMARKS.md, "Sight test as the camera sees").
+/// them from cells the robot's map held standable.
 pub fn camera_sees(
     map: &Map,
     from: usize,
@@ -103,7 +103,7 @@ fn segment_meets_box(
     // an axis, and for a diagonal one it may call a pass by the box's corner a hit (conservative:
     // it never sees through the hits). The exact test (the segment clipped to the box) was tried
     // and not kept: it let viewpoints whose lines graze a wall's end pass, and looks from them
-    // missed more (BENCHMARKS.md, 2026-11-27 evening).
+    // missed more (docs/experiments.md).
     let (x0, x1) = (origin.x + dir.x * t_in, origin.x + dir.x * t_out);
     let (y0, y1) = (origin.y + dir.y * t_in, origin.y + dir.y * t_out);
     x0.max(x1) >= f64::from(b.min[0])

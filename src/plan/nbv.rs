@@ -1,4 +1,5 @@
-//! NBV-TSP (seed 002, Alg. 1): frontier-based coverage sampling of candidate viewpoints (Alg. 2–3)
+//! NBV-TSP (Meng et al., "A two-stage optimized next-view planning framework for 3-D unknown
+//! environment exploration, and structural reconstruction", RA-L 2017, Alg. 1): frontier-based coverage sampling of candidate viewpoints (Alg. 2–3)
 //! scored by a volumetric heuristic gain (Eq. 4–6), pruned as the map changes (Alg. 4), ordered by a
 //! genetic algorithm over a fixed-start open TSP with the cost of Eq. 7 (Alg. 5); the robot drives
 //! the first edge, then everything is repeated.
@@ -40,8 +41,7 @@
 //!   after a look from where the camera could see it, a second look, or two failed approaches;
 //!   the next viewpoint for it is chosen away from those looked from. (With every cell
 //!   within the sampling radius of a reached anchor given up instead, 29 of 99 runs on real plans
-//!   ended `complete` with frontiers left; 15 with these rules, BENCHMARKS.md, "Columns known only
-//!   above the camera".) Then each frontier seen through a gap too narrow to pass is looked at
+//!   ended `complete` with frontiers left; 15 with these rules.) Then each frontier seen through a gap too narrow to pass is looked at
 //!   once from a reachable cell in line of sight ([`super::frontier::distant_view`], shared
 //!   with GREEDY and THP).
 

@@ -421,7 +421,7 @@ pub struct GaParams {
     pub stall_generations: usize,
 }
 
-/// NBV-TSP Alg. 5 (seed 002 §IV-A.4), in the style of its reference [19]: a population of random
+/// NBV-TSP Alg. 5 (Meng et al., RA-L 2017, §IV-A.4), in the style of its reference [19]: a population of random
 /// routes (start fixed), shuffled each generation into sub-groups; each sub-group's best route
 /// survives and its other slots are refilled by mutants of it, without crossover. The paper names
 /// swapping and sliding; the flip (reversal of a piece) of the same family of GA-for-TSP codes is

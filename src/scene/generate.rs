@@ -120,7 +120,7 @@ impl GeneratedScene {
 
 /// Largest footprint `generate` accepts, m²: a 100 × 100 m building, whose ground-truth grid at the
 /// default 0.1 m voxels (1,000 × 1,000 cells × 18 layers) still fits in memory comfortably; the
-/// scaling table of `BENCHMARKS.md` goes to 6,400 m².
+/// scaling table of BENCHMARKS.md's speed section goes to 6,400 m².
 pub const MAX_AREA_M2: f64 = 10_000.0;
 
 /// Generates a scene of `style` with a footprint of about `area_m2` (20–10,000 m²), deterministic per

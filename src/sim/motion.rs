@@ -209,7 +209,7 @@ impl MotionExecutor {
                 // The same rule as tight tracking: a move that keeps the guard clearance is safe.
                 // Requiring the clearance never to shrink at all froze a robot standing between
                 // two hazards with clearance to spare: along the gap it stays equal, and each step
-                // of the turn's arc lost a fraction of a millimetre (`plan_6ede154d56`, THP).
+                // of the turn's arc lost a fraction of a millimetre.
                 let next_clearance = obstacle_clearance(map, next.position(), self.slow_clearance);
                 if next_clearance < clearance - CLEARANCE_TOLERANCE_M
                     && next_clearance < self.guard_clearance - CLEARANCE_TOLERANCE_M
@@ -217,7 +217,7 @@ impl MotionExecutor {
                     // The arc of turning while moving loses clearance: finish the turn in place,
                     // onto the heading itself, so that the next step goes straight along it. A
                     // proportional turn only approaches the heading, and a robot standing at the
-                    // guard's clearance in a gap (`plan_6ede154d56`, THP, seed 2) lost a fraction
+                    // guard's clearance in a gap lost a fraction
                     // of a millimetre on every step, was refused every step, and never moved again.
                     let w = (err / self.dt).clamp(-self.max_turn, self.max_turn);
                     return (Command { v: 0.0, w }, MotionStatus::Busy);

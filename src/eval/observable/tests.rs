@@ -164,6 +164,7 @@ fn sweep_equals_rays(mesh: &crate::scene::TriMesh, spawn: Option<Pose2>, spacing
 /// The sweep against the ray-by-ray walk on every shipped scene and three plans (one of them
 /// the benchmark's, with views through narrow gaps), every fourth square of positions.
 #[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
 fn column_sweep_marks_what_rays_mark_on_shipped_scenes() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(&root)

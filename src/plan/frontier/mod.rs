@@ -16,8 +16,7 @@
 //! (beside never-seen floor it cannot get any nearer) counts as the look from on top, not as a
 //! failed attempt. With that and the wider sighted viewpoint
 //! ([`FrontierVisits::sighted_viewpoint`]), runs on 33 real plans × 3 starts that ended `complete`
-//! with an observable frontier left went from 20 to 14 (GREEDY) and from 24 to 11 (THP)
-//! (BENCHMARKS.md, "Frontiers given up too early"). A look from a chosen viewpoint is driven to
+//! with an observable frontier left went from 20 to 14 (GREEDY) and from 24 to 11 (THP). A look from a chosen viewpoint is driven to
 //! exactly (`exact_arrival`, [`super::Action::Follow`]): 0.2 m off it the aimed voxel was often out
 //! of view. A viewpoint is first sought where the camera surely sees the aimed voxel (its centre,
 //! through no occupied voxel), then where it may see it (a point of the voxel, past the ray hits of

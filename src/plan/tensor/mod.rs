@@ -1,4 +1,5 @@
-//! TENSOR: exploration guided by a time-varying tensor field (Xu et al. 2017, seed 001 §4–6).
+//! TENSOR: exploration guided by a time-varying tensor field (Xu et al., "Autonomous reconstruction of unknown indoor scenes guided by
+//! time-varying tensor fields", ACM TOG 2017, §4–6).
 //!
 //! - **Field in time.** The planner owns a [`TensorField`] on the map's grid, updated every key
 //!   frame (`field.keyframe_period_s`, 4 s). Between key frames the field moves from the previous

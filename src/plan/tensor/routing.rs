@@ -1,5 +1,6 @@
-//! TENSOR's global routing (seed 001 §4.2): the information gain `I(p)`, the routing graph over the
-//! field's topology, Prim's tree from the root and the target edge, and driving to a node.
+//! TENSOR's global routing (Xu et al., ACM TOG 2017, §4.2): the information gain `I(p)`, the
+//! routing graph over the field's topology, Prim's tree from the root and the target edge, and
+//! driving to a node.
 
 use super::*;
 

@@ -85,7 +85,7 @@ impl Thp {
         let grid = ctx.map.grid();
         let path: Vec<Point2<f64>> = cells.iter().map(|c| grid.center(*c)).collect();
         if self.cfg.advection {
-            if let Some(field) = &mut self.field {
+            if let Some(field) = &mut self.key_frames.field {
                 field.set_path(&path);
             }
         }
@@ -139,7 +139,7 @@ impl Thp {
             } else {
                 ctx.pose.yaw
             };
-            let traced = self.field.as_mut().map(|field| {
+            let traced = self.key_frames.field.as_mut().map(|field| {
                 field.pathline_computing(robot, heading, self.cfg.advect_length_m, false)
             });
             if let Some((line, reason)) = traced {
@@ -203,6 +203,7 @@ mod tests {
     use crate::config::Config;
     use crate::grid::Cell;
     use crate::map::testing::{furnished_room_setup, seen_from};
+    use crate::plan::search::Search;
 
     /// An advected segment that comes within the goal tolerance of a viewpoint chosen for a look
     /// (`near_view`, arrived at exactly) ends at the viewpoint itself; any other goal's segment
@@ -235,7 +236,7 @@ mod tests {
         };
         for near_view in [true, false] {
             let mut thp = Thp::new(&super::super::ThpParams::from(&cfg));
-            thp.field = Some(TensorField::new(grid, &cfg.field));
+            thp.key_frames.field = Some(TensorField::new(grid, &cfg.field));
             let visit = Visit {
                 target: vec![cells[15]],
                 aim: grid.index(cells[15]),
@@ -309,7 +310,9 @@ mod tests {
                 near_view: true,
             };
             thp.set_goal(&ctx, visit, tour_node, &cells);
-            thp.new_anchors = true;
+            // A new degenerate point: `P*` is not empty.
+            (thp.anchors).take_points(&[(1, ctx.pose.position())], |_| true, true);
+            assert!(thp.anchors.has_new());
             let _ = thp.next_action(&mut ctx).unwrap();
             let kept = thp
                 .mode

@@ -17,7 +17,7 @@ pub(super) enum Choice {
 /// clear gap, it took THP through doors narrower than the planners' inflation into rooms no planner
 /// may plan into (outside the metrics' reachable region): 12 of 99 runs on each half of the real
 /// plans, 2–34 % of their explored volume outside the observable set, often into a pocket that then
-/// closed (BENCHMARKS.md).
+/// closed (docs/experiments.md).
 #[derive(Clone, Debug, Default)]
 pub(super) struct Trail(Vec<bool>);
 
@@ -43,6 +43,21 @@ impl Trail {
                     .is_some_and(|j| self.0.get(j).copied().unwrap_or(false))
             })
     }
+}
+
+/// Open volume views within this of a kept one do not become tour nodes of their own: from about a
+/// metre apart a view turned once shows much the same volume, metres.
+const VOLUME_VIEW_NODE_SPACING_M: f64 = 1.0;
+
+/// At most this many volume views (the largest gains after thinning) make one tour.
+const VOLUME_VIEW_NODES_MAX: usize = 24;
+
+/// The escapes from pockets (`additions.escape_tries`): where the robot has been, and how often an
+/// escape was started toward each target cell.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Escapes {
+    pub(super) trail: Trail,
+    tries: BTreeMap<usize, u32>,
 }
 
 /// Where THP's next goal comes from. [`Thp::choose_goal_from`] asks each in the order of
@@ -96,8 +111,7 @@ impl Thp {
     /// blind zone, so its second approach (all the way, [`FrontierVisits::cut_short`]) comes next,
     /// while the robot is there. Left out, it emptied its group, its anchor counted as visited, and
     /// once the robot was away it came back as a new anchor: the robot shuttled between two such
-    /// frontiers for the rest of a run (`plan_115c3a7a64` seed 2, random start: 110 m driven, 71 m of it
-    /// after t = 200 s; 36 m with this rule).
+    /// frontiers for the rest of a run (on one real plan, 110 m driven where this rule drives 36 m).
     pub(super) fn frontiers(
         &self,
         map: &Map,
@@ -172,7 +186,7 @@ impl Thp {
         let robot = ctx.pose.position();
         let (fronts, near, segment_cells) = self.frontiers(ctx.map, df, robot);
         let nodes = match self.cfg.grouping {
-            Grouping::Anchors => self.group_by_anchors(&fronts, robot),
+            Grouping::Anchors => self.anchors.group(&fronts, robot, (&self.cfg).into()),
             Grouping::None => fronts
                 .iter()
                 .enumerate()
@@ -186,7 +200,20 @@ impl Thp {
                 kmeans_nodes(&fronts, &segment_cells, grid.res, self.cfg.kmeans_cluster_m)
             }
         };
-        let tour_next = self.plan_tour(ctx, costs, df, &nodes, &fronts);
+        // Under `thp.finish_group_first` a new tour starts at the group being scanned.
+        let current = (self.mode.goal())
+            .filter(|_| self.cfg.finish_group_first)
+            .and_then(|g| g.tour_node);
+        let inputs = TourInputs {
+            map: ctx.map,
+            time_s: ctx.time_s,
+            costs,
+            df,
+        };
+        let new_anchors = self.anchors.has_new();
+        let tour_next = (self.tour).plan(&inputs, &self.cfg, &nodes, &fronts, new_anchors, current);
+        // Planned over every anchor there is (or no node was left to plan over): `P*` is empty.
+        self.anchors.tour_planned();
         let at = GoalInputs {
             start,
             costs,
@@ -209,52 +236,6 @@ impl Thp {
             }
         }
         unreachable!("the end of the run always answers")
-    }
-
-    /// Alg. 1: re-solves the tour over `nodes` when new anchors appeared (or at every choice
-    /// without anchor grouping), else follows it, dropping visited anchors. The tour's first node
-    /// and its least-cost frontier; `None` (and no tour) when there is no node.
-    fn plan_tour(
-        &mut self,
-        ctx: &mut PlanContext,
-        costs: &plan::StepCosts,
-        df: &DistanceField,
-        nodes: &[Node],
-        fronts: &[Frontier],
-    ) -> Option<(usize, Frontier)> {
-        if nodes.is_empty() {
-            // No node to route over: `P*` (if any) has nothing to re-order.
-            self.new_anchors = false;
-            self.tour.clear();
-            self.tour_points.clear();
-            return None;
-        }
-        let resolve = match self.cfg.grouping {
-            Grouping::Anchors => {
-                self.new_anchors || !nodes.iter().all(|n| self.tour.contains(&n.key))
-            }
-            Grouping::None | Grouping::Kmeans => true,
-        };
-        if resolve {
-            self.solve_tour(ctx, costs, df, nodes, fronts);
-        } else {
-            // Follow the tour: drop visited anchors, keep the order.
-            let keep: Vec<(usize, Point2<f64>)> = self
-                .tour
-                .iter()
-                .zip(&self.tour_points)
-                .filter(|(k, _)| nodes.iter().any(|n| n.key == **k))
-                .map(|(k, p)| (*k, *p))
-                .collect();
-            self.tour = keep.iter().map(|k| k.0).collect();
-            self.tour_points = keep.iter().map(|k| k.1).collect();
-        }
-        let first = self.tour[0];
-        let node = nodes
-            .iter()
-            .find(|n| n.key == first)
-            .expect("tour covers the nodes");
-        Some((first, node.nearest_member(fronts).clone()))
     }
 
     /// A frontier in the blind zone around the robot, by a step back to see the floor there: before
@@ -282,8 +263,13 @@ impl Thp {
         let mut view = f.visit(&grid, &at.segment_cells, true);
         view.target
             .retain(|c| self.visits.needs_viewpoint(grid.index(*c)));
-        let seen_from =
-            (self.visits).sighted_viewpoint(ctx.map, at.df, f.aim, self.view_m, &ctx.cfg.camera);
+        let seen_from = (self.visits).sighted_viewpoint(
+            ctx.map,
+            at.df,
+            f.aim,
+            self.cfg.view_distance_m,
+            &ctx.cfg.camera,
+        );
         let Some(v) = seen_from else {
             self.visits.no_viewpoint(&grid, &view);
             return None;
@@ -325,7 +311,7 @@ impl Thp {
         };
         let cells = self
             .visits
-            .cut_short(&grid, &path.cells, f.aim, self.view_m)
+            .cut_short(&grid, &path.cells, f.aim, self.cfg.view_distance_m)
             .to_vec();
         self.set_goal(ctx, visit, Some(first), &cells);
         Some(Choice::Drive)
@@ -351,7 +337,7 @@ impl Thp {
             if open_frontiers.is_empty() {
                 break;
             }
-            let trail = &self.trail;
+            let trail = &self.escapes.trail;
             let Some(path) = plan::escape_path(
                 ctx,
                 start,
@@ -366,7 +352,7 @@ impl Thp {
                 .last()
                 .and_then(|p| grid.cell_of(*p))
                 .map_or(start, |c| grid.index(c));
-            let tries = self.escape_tries.entry(target).or_insert(0);
+            let tries = self.escapes.tries.entry(target).or_insert(0);
             *tries += 1;
             if *tries > self.rules.escape_tries {
                 self.stats.escapes_given_up.add(1.0);
@@ -389,7 +375,7 @@ impl Thp {
     fn end_of_run_source(&mut self, ctx: &mut PlanContext, at: &GoalInputs) -> Choice {
         let (map, grid, df, costs) = (ctx.map, *ctx.map.grid(), at.df, at.costs);
         let segment_cells = &at.segment_cells;
-        let (rules, view_m, params) = (self.rules.clone(), self.view_m, ctx.cfg);
+        let (rules, view_m, params) = (self.rules.clone(), self.cfg.view_distance_m, ctx.cfg);
         let camera = &params.camera;
         let ending = end_of_run(
             &rules,
@@ -438,11 +424,60 @@ impl Thp {
         }
     }
 
+    /// The next volume view to drive to, marked taken; `None` when views are off or none is open.
+    ///
+    /// With `additions.volume_view_tour` (not in the paper) the open views, thinned to one per
+    /// [`VOLUME_VIEW_NODE_SPACING_M`], are ordered by a fixed-start open TSP from the robot over
+    /// their path costs, as Alg. 1 orders anchors, and the first is taken; the tour is solved again
+    /// at every view, since each view changes what the others would still show. Without it, the
+    /// best gain per metre one view at a time, as GREEDY does ([`VolumeViews::next`]).
+    fn next_volume_view(
+        &mut self,
+        ctx: &mut PlanContext,
+        costs: &plan::StepCosts,
+        df: &DistanceField,
+    ) -> Option<VolumeView> {
+        let grid = *ctx.map.grid();
+        let mut views = self.volume_views.take()?;
+        let next = if self.rules.volume_view_tour {
+            let open = views.thinned(
+                ctx.map,
+                df,
+                VOLUME_VIEW_NODE_SPACING_M,
+                VOLUME_VIEW_NODES_MAX,
+            );
+            let first = match open.len() {
+                0 => None,
+                1 => Some(open[0]),
+                _ => {
+                    let cells: Vec<usize> = open.iter().map(|v| v.cell).collect();
+                    let inputs = TourInputs {
+                        map: ctx.map,
+                        time_s: ctx.time_s,
+                        costs,
+                        df,
+                    };
+                    let m = self.tour.cost_matrix(&inputs, &self.cfg, &cells);
+                    let from_robot = costs_from(df, &cells);
+                    Some(open[open_tour_from(&m, &from_robot, self.cfg.exact_tsp_max_nodes)[0]])
+                }
+            };
+            if let Some(v) = first {
+                views.mark_taken(&grid, v.cell);
+            }
+            first
+        } else {
+            views.next(ctx.map, df)
+        };
+        self.volume_views = Some(views);
+        next
+    }
+
     /// For a robot trapped where no cell within two robot radii may be entered (a back-off took it
     /// into a pocket, or obstacles seen since inflated the cells around it): the escape search
     /// ([`plan::escape_path`]) to the nearest enterable cell within [`WAY_OUT_M`], counted as an
     /// escape; a look around if there is none. Only ever looking around there kept the robot turning
-    /// in place until the run ended `stuck` (`plan_18b39b374f`, seed 2).
+    /// in place until the run ended `stuck`.
     fn way_out(&mut self, ctx: &mut PlanContext) -> Choice {
         let grid = *ctx.map.grid();
         let robot = ctx.pose.position();
@@ -498,8 +533,13 @@ impl Thp {
     ) -> Choice {
         let grid = *ctx.map.grid();
         self.ledger.kind = GoalKind::BlindZone;
-        let Some(v) = blind_zone_viewpoint(ctx.map, df, visit.aim, self.view_m, &ctx.cfg.camera)
-        else {
+        let Some(v) = blind_zone_viewpoint(
+            ctx.map,
+            df,
+            visit.aim,
+            self.cfg.view_distance_m,
+            &ctx.cfg.camera,
+        ) else {
             self.mode.drive(Goal {
                 visit,
                 tour_node,

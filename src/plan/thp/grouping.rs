@@ -2,7 +2,13 @@
 //! anchors, frontiers join their nearest anchor within `d_f`, groups spanning a wall are split, and
 //! the k-means baseline of Fig. 8.
 
-use super::*;
+use crate::config::ThpConfig;
+use crate::grid::GridSpec;
+use crate::map::Map;
+use crate::plan::frontier::Visit;
+use crate::plan::Count;
+use nalgebra::Point2;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Where an anchor came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -13,11 +19,12 @@ pub(super) enum AnchorSource {
     Frontier,
 }
 
+/// An anchor of §3.3: a node the tour may route over, visited once its group is empty.
 #[derive(Clone, Debug)]
-pub(super) struct Anchor {
-    pub(super) pos: Point2<f64>,
-    pub(super) source: AnchorSource,
-    pub(super) visited: bool,
+struct Anchor {
+    pos: Point2<f64>,
+    source: AnchorSource,
+    visited: bool,
 }
 
 /// A frontier segment as the planner sees it in one plan.
@@ -196,86 +203,135 @@ pub(super) fn kmeans_nodes(
         .collect()
 }
 
-impl Thp {
-    pub(super) fn add_anchor(&mut self, pos: Point2<f64>, source: AnchorSource) -> usize {
-        self.anchors.push(Anchor {
+/// The distances of Alg. 2 (`thp.d_f_m`, `thp.d_g_m`, `thp.d_p_m`), metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct GroupDistances {
+    /// A frontier joins its nearest unvisited anchor within this (Eq. 7–8).
+    pub(super) d_f: f64,
+    /// A member whose detour from the robot is at least this is split off (Eq. 9's ν).
+    pub(super) d_g: f64,
+    /// Groups are split only while the robot is within this of their anchor (Eq. 9's μ).
+    pub(super) d_p: f64,
+}
+
+impl From<&ThpConfig> for GroupDistances {
+    fn from(cfg: &ThpConfig) -> Self {
+        GroupDistances {
+            d_f: cfg.d_f_m,
+            d_g: cfg.d_g_m,
+            d_p: cfg.d_p_m,
+        }
+    }
+}
+
+/// The anchors THP routes over (§3.3, Eq. 5) and the grouping of frontiers around them (§3.4,
+/// Alg. 2). It owns the anchors, which degenerate points it has taken, and `P*`: whether anchors
+/// appeared since the tour was last planned.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Anchors {
+    list: Vec<Anchor>,
+    /// Degenerate-point ids already turned into anchors (or deliberately ignored).
+    known_ids: BTreeSet<u64>,
+    /// `P*` is not empty.
+    new_since_tour: bool,
+    stats: AnchorStats,
+}
+
+/// The grouping's counters (`planner_stats`).
+#[derive(Clone, Copy, Debug, Default)]
+struct AnchorStats {
+    degenerate: Count,
+    frontier: Count,
+    visited: Count,
+    groups_split: Count,
+}
+
+impl Anchors {
+    /// Whether anchors appeared since [`Anchors::tour_planned`] (`P*` is not empty; Alg. 1 then
+    /// breaks its loop and re-solves the tour).
+    pub(super) fn has_new(&self) -> bool {
+        self.new_since_tour
+    }
+
+    /// The tour was planned over the anchors as they are: `P*` is empty again.
+    pub(super) fn tour_planned(&mut self) {
+        self.new_since_tour = false;
+    }
+
+    fn add(&mut self, pos: Point2<f64>, source: AnchorSource) -> usize {
+        self.list.push(Anchor {
             pos,
             source,
             visited: false,
         });
-        self.new_anchors = true;
+        self.new_since_tour = true;
         match source {
-            AnchorSource::Degenerate(_) => self.stats.anchors_degenerate.add(1.0),
-            AnchorSource::Frontier => self.stats.anchors_frontier.add(1.0),
+            AnchorSource::Degenerate(_) => self.stats.degenerate.add(1.0),
+            AnchorSource::Frontier => self.stats.frontier.add(1.0),
         }
-        self.anchors.len() - 1
+        self.list.len() - 1
     }
 
-    /// Turns the field's new degenerate points into anchors (Eq. 5), and moves existing degenerate
-    /// anchors with their tracked points. Points off the known traversable floor are skipped until
-    /// they are on it (they may sit in unknown space, outside the walls or inside furniture).
-    pub(super) fn take_degenerate_points(&mut self, map: &Map, first_key_frame: bool) {
-        let Some(field) = &self.field else { return };
-        let grid = map.grid();
-        let points: Vec<(u64, Point2<f64>)> =
-            field.points().iter().map(|p| (p.id, p.pos())).collect();
-        for (id, pos) in points {
+    /// Eq. 5: turns a key frame's degenerate points (tracked id, position) into anchors, and moves
+    /// each unvisited degenerate anchor with its tracked point. A point where `on_floor` is false
+    /// (unknown space, outside the walls, inside furniture) is skipped until it is on the floor.
+    /// Without `take_new` (the Table 3 ablation after the first key frame), new points are ignored
+    /// for good.
+    pub(super) fn take_points(
+        &mut self,
+        points: &[(u64, Point2<f64>)],
+        on_floor: impl Fn(Point2<f64>) -> bool,
+        take_new: bool,
+    ) {
+        for &(id, pos) in points {
             if let Some(a) = self
-                .anchors
+                .list
                 .iter_mut()
                 .find(|a| a.source == AnchorSource::Degenerate(id))
             {
-                if !a.visited && on_floor(map, grid, pos) {
+                if !a.visited && on_floor(pos) {
                     a.pos = pos;
                 }
                 continue;
             }
-            if self.known_ids.contains(&id) || !on_floor(map, grid, pos) {
-                continue;
-            }
-            if !self.cfg.extension && !first_key_frame {
-                // Table 3 ablation: route over the first key frame's points only.
-                self.known_ids.insert(id);
+            if self.known_ids.contains(&id) || !on_floor(pos) {
                 continue;
             }
             self.known_ids.insert(id);
-            self.add_anchor(pos, AnchorSource::Degenerate(id));
+            if take_new {
+                self.add(pos, AnchorSource::Degenerate(id));
+            }
         }
     }
 
-    /// Alg. 2: groups frontiers around the unvisited anchors (Eq. 7–8), makes the ungrouped ones
-    /// anchors, splits groups (Eq. 9), and marks anchors with empty groups visited. Returns the nodes.
-    pub(super) fn group_by_anchors(
+    /// Alg. 2: groups the frontiers around the unvisited anchors (Eq. 7–8), makes the ungrouped
+    /// ones anchors, splits groups (Eq. 9, [`split_group`]), and marks the anchors whose group is
+    /// empty visited. Returns the groups as tour nodes, keyed by anchor index.
+    pub(super) fn group(
         &mut self,
         fronts: &[Frontier],
         robot: Point2<f64>,
+        d: GroupDistances,
     ) -> Vec<Node> {
         let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
         for (fi, f) in fronts.iter().enumerate() {
             let nearest = self
-                .anchors
+                .list
                 .iter()
                 .enumerate()
                 .filter(|(_, a)| !a.visited)
                 .map(|(k, a)| ((a.pos - f.pos).norm(), k))
                 .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             let k = match nearest {
-                Some((d, k)) if d <= self.cfg.d_f_m => k,
-                _ => self.add_anchor(f.pos, AnchorSource::Frontier),
+                Some((dist, k)) if dist <= d.d_f => k,
+                _ => self.add(f.pos, AnchorSource::Frontier),
             };
             groups.entry(k).or_default().push(fi);
         }
         let keys: Vec<usize> = groups.keys().copied().collect();
         for k in keys {
             let members = groups.get(&k).cloned().unwrap_or_default();
-            let split = split_group(
-                &members,
-                fronts,
-                robot,
-                self.anchors[k].pos,
-                self.cfg.d_g_m,
-                self.cfg.d_p_m,
-            );
+            let split = split_group(&members, fronts, robot, self.list[k].pos, d.d_g, d.d_p);
             if split.is_empty() {
                 continue;
             }
@@ -289,14 +345,14 @@ impl Thp {
                     .collect(),
             );
             for fi in split {
-                let a = self.add_anchor(fronts[fi].pos, AnchorSource::Frontier);
+                let a = self.add(fronts[fi].pos, AnchorSource::Frontier);
                 groups.entry(a).or_default().push(fi);
             }
         }
-        for (k, a) in self.anchors.iter_mut().enumerate() {
+        for (k, a) in self.list.iter_mut().enumerate() {
             if !a.visited && groups.get(&k).is_none_or(|g| g.is_empty()) {
                 a.visited = true;
-                self.stats.anchors_visited.add(1.0);
+                self.stats.visited.add(1.0);
             }
         }
         groups
@@ -304,10 +360,21 @@ impl Thp {
             .filter(|(_, m)| !m.is_empty())
             .map(|(k, members)| Node {
                 key: k,
-                pos: self.anchors[k].pos,
+                pos: self.list[k].pos,
                 members,
             })
             .collect()
+    }
+
+    /// The grouping's counters, under their `planner_stats` names.
+    pub(super) fn stats(&self) -> [(&'static str, Count); 4] {
+        let s = &self.stats;
+        [
+            ("anchors_degenerate", s.degenerate),
+            ("anchors_frontier", s.frontier),
+            ("anchors_visited", s.visited),
+            ("groups_split", s.groups_split),
+        ]
     }
 }
 
@@ -322,6 +389,106 @@ mod tests {
             aim: 0,
             cost,
         }
+    }
+
+    const D: GroupDistances = GroupDistances {
+        d_f: 2.0,
+        d_g: 2.0,
+        d_p: 3.0,
+    };
+
+    fn at(x: f64, y: f64) -> Point2<f64> {
+        Point2::new(x, y)
+    }
+
+    fn anchors_at(points: &[(u64, Point2<f64>)]) -> Anchors {
+        let mut anchors = Anchors::default();
+        anchors.take_points(points, |_| true, true);
+        anchors
+    }
+
+    #[test]
+    fn frontiers_join_their_nearest_unvisited_anchor_within_d_f() {
+        let mut anchors = anchors_at(&[(1, at(0.0, 0.0)), (2, at(3.0, 0.0))]);
+        anchors.tour_planned();
+        // Straight paths from a robot far away (μ ≥ d_p for both anchors: no split).
+        let robot = at(20.0, 20.0);
+        let f = |x: f64, y: f64| front((x, y), ((at(x, y) - robot).norm()) as f32);
+        let fronts = [f(1.0, 0.0), f(1.6, 0.0), f(2.9, 0.5), f(9.0, 0.0)];
+        let nodes = anchors.group(&fronts, robot, D);
+        let members: Vec<(usize, Vec<usize>)> =
+            nodes.iter().map(|n| (n.key, n.members.clone())).collect();
+        // f1 is within d_f of both anchors and joins the nearer, anchor 1 (1.4 m against 1.6 m);
+        // f3, beyond d_f of both, becomes anchor 2 with itself as its group (Alg. 2).
+        assert_eq!(members, vec![(0, vec![0]), (1, vec![1, 2]), (2, vec![3])]);
+        assert_eq!(nodes[2].pos, at(9.0, 0.0));
+        assert!(
+            anchors.has_new(),
+            "a frontier anchor is new: P* is not empty"
+        );
+    }
+
+    #[test]
+    fn frontier_beyond_d_f_of_every_anchor_joins_none() {
+        let mut anchors = anchors_at(&[(1, at(0.0, 0.0))]);
+        let robot = at(20.0, 20.0);
+        let fronts = [front((2.5, 0.0), 30.0)];
+        let nodes = anchors.group(&fronts, robot, D);
+        // Anchor 0 kept nothing and is visited; the frontier is its own anchor.
+        assert_eq!(nodes.len(), 1);
+        assert_eq!((nodes[0].key, nodes[0].members.clone()), (1, vec![0]));
+        assert_eq!(anchors.stats.visited.get(), Some(1.0));
+    }
+
+    #[test]
+    fn a_visited_anchor_takes_no_frontier_again() {
+        let mut anchors = anchors_at(&[(1, at(0.0, 0.0))]);
+        let robot = at(20.0, 20.0);
+        // No frontier near anchor 0: it is visited.
+        assert!(anchors.group(&[], robot, D).is_empty());
+        // A frontier beside it later makes a new anchor rather than reviving the visited one.
+        let nodes = anchors.group(&[front((0.5, 0.0), 30.0)], robot, D);
+        assert_eq!(nodes.len(), 1);
+        assert_eq!(nodes[0].key, 1);
+        // Its tracked point does not move a visited anchor either.
+        anchors.take_points(&[(1, at(3.0, 3.0))], |_| true, true);
+        assert_eq!(anchors.list[0].pos, at(0.0, 0.0));
+    }
+
+    #[test]
+    fn a_split_makes_the_far_members_anchors_of_their_own() {
+        let mut anchors = anchors_at(&[(1, at(1.0, 0.0))]);
+        let robot = at(0.0, 0.0);
+        // As in the split test above: f1 is 1.5 m away through a wall, 6 m by path.
+        let fronts = [front((2.0, 0.0), 2.1), front((0.0, 1.5), 6.0)];
+        let nodes = anchors.group(&fronts, robot, D);
+        let members: Vec<(usize, Vec<usize>)> =
+            nodes.iter().map(|n| (n.key, n.members.clone())).collect();
+        assert_eq!(members, vec![(0, vec![0]), (1, vec![1])]);
+        assert_eq!(anchors.list[1].source, AnchorSource::Frontier);
+        assert_eq!(anchors.stats.groups_split.get(), Some(1.0));
+    }
+
+    #[test]
+    fn degenerate_points_become_anchors_once_on_the_floor() {
+        let mut anchors = Anchors::default();
+        let floor = |p: Point2<f64>| p.x >= 0.0;
+        // Point 7 is off the floor: skipped, and not forgotten.
+        anchors.take_points(&[(7, at(-1.0, 0.0)), (8, at(1.0, 0.0))], floor, true);
+        assert_eq!(anchors.list.len(), 1);
+        anchors.tour_planned();
+        anchors.take_points(&[(7, at(2.0, 0.0)), (8, at(1.5, 0.0))], floor, true);
+        assert_eq!(anchors.list.len(), 2);
+        assert!(anchors.has_new());
+        // Anchor of point 8 moved with its point; off the floor it stays where it was.
+        assert_eq!(anchors.list[0].pos, at(1.5, 0.0));
+        anchors.take_points(&[(8, at(-3.0, 0.0))], floor, true);
+        assert_eq!(anchors.list[0].pos, at(1.5, 0.0));
+        // Without `take_new` (Table 3's ablation) a new point is ignored, for good.
+        anchors.take_points(&[(9, at(3.0, 0.0))], floor, false);
+        anchors.take_points(&[(9, at(3.0, 0.0))], floor, true);
+        assert_eq!(anchors.list.len(), 2);
+        assert_eq!(anchors.stats.degenerate.get(), Some(2.0));
     }
 
     #[test]

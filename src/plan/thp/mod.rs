@@ -1,28 +1,30 @@
-//! THP: tensor-field-driven hierarchical path planning (seed 000, §3.3–3.5).
+//! THP: tensor-field-driven hierarchical path planning (Xi, Zhu, Duan, Yi, Zheng, He, Xu, "THP:
+//! Tensor-field-driven hierarchical path planning for autonomous scene exploration with depth
+//! sensors", Computational Visual Media 2024, §3.3–3.5).
 //!
 //! Three levels, each re-using the shared map, field, searches and motion executor:
 //!
-//! 1. **Anchors and the online TSP (§3.3, Alg. 1, Eq. 5–6).** Anchors are the tracked degenerate
-//!    points of the field (recomputed every `thp.field_period_s`), kept at their last position once
+//! 1. **Anchors and the online TSP (§3.3, Alg. 1, Eq. 5–6; [`tour::Tour`]).** Anchors are the
+//!    tracked degenerate points of the field (recomputed every `thp.field_period_s`), kept at their last position once
 //!    their point disappears, and visited for good once their frontier group is empty. `P*` is the set
 //!    of anchors new since the last solve; while it is empty the robot follows the tour, otherwise the
 //!    fixed-start open TSP is re-solved (Alg. 1 breaks its loop). Where the tour starts is room the
 //!    paper leaves (`thp.tour_start`, [`tour`]): Alg. 1 says "the anchor nearest the robot", which
 //!    can lie behind the robot while the rest of the tour lies ahead; `"robot"` makes the robot's own
 //!    cell the fixed start, so the first group is the one the whole tour favours. The paper's reading
-//!    is the default: on real plans the robot start drove slightly farther (BENCHMARKS.md). Costs
+//!    is the default: on real plans the robot start drove slightly farther (docs/experiments.md). Costs
 //!    are path costs under the shared search cost rule between the nodes' anchors (Eq. 6's
 //!    dist(p_i, p_j); `thp.tour_costs`), an anchor off the reachable floor replaced by its group's
 //!    least-cost frontier. They come from one Dijkstra per node
-//!    ([`Search::costs_to_targets`]) rather than pairwise A*, each row kept while its node keeps its
+//!    ([`super::search::Search::costs_to_targets`]) rather than pairwise A*, each row kept while its node keeps its
 //!    access cell and searched again once `thp.cost_refresh_s` old, at most
 //!    `thp.cost_refresh_rows_max` at one solve and only for the pairs no younger row holds (the
 //!    paper leaves caching open; [`tour::CostRows`]). Exact Held–Karp up to
-//!    `thp.exact_tsp_max_nodes`, the heuristic above ([`tsp::solve`]).
-//! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9).** Frontier positions are the
-//!    centroids of the map's frontier segments (at most `map.frontier_segment_max_m`, 1 m, long). Each
+//!    `thp.exact_tsp_max_nodes`, the heuristic above ([`super::tsp::solve`]).
+//! 2. **Frontier grouping and splitting (§3.4, Alg. 2, Eq. 7–9; [`grouping::Anchors`]).** Frontier
+//!    positions are the centroids of the map's frontier segments (at most `map.frontier_segment_max_m`, 1 m, long). Each
 //!    joins its nearest unvisited anchor within `d_f`; the rest become anchors. Groups are split by
-//!    Eq. 9 under the reading documented at [`split_group`]. Groups are visited in tour order, the
+//!    Eq. 9 under the reading documented at [`grouping::split_group`]. Groups are visited in tour order, the
 //!    frontiers of a group in path order (least path cost from the robot first).
 //! 3. **A* and advection (§3.5, Eq. 10–11).** A* runs to the next goal; its path is sampled at `d_s`
 //!    into constraint points that change the planning field within σ of the path. The robot then moves
@@ -85,20 +87,17 @@ use super::frontier::{
     blind_zone_first, blind_zone_viewpoint, distant_view, end_of_run, follow_to, Ending,
     FrontierVisits, Visit,
 };
-use super::frontier::{VolumeViewParams, VolumeViews};
-use super::search::{DistanceField, Search};
-use super::tsp::{self, CostMatrix};
+use super::frontier::{VolumeView, VolumeViewParams, VolumeViews};
+use super::search::DistanceField;
 use super::{path_length, Action, Count, FieldPlanner, Plan, PlanContext, PlanParams, Planner};
-use crate::config::{Additions, Config, FieldConfig, Grouping, ThpConfig, TourCosts, TourStart};
+use crate::config::{Additions, Config, FieldConfig, Grouping, ThpConfig};
 use crate::field::{StopReason, TensorField};
 use crate::grid::GridSpec;
 use crate::map::Map;
 use crate::plan;
 use crate::{Pose2, Result};
 use nalgebra::Point2;
-use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
-use std::time::Instant;
 
 /// An attempt that moved the robot less than this did not move it at all (`Mode::Blocked`), metres.
 const BLOCKED_MOVE_M: f64 = 0.05;
@@ -112,9 +111,10 @@ mod tour;
 
 use following::*;
 use goals::Choice;
-use grouping::*;
+use grouping::{kmeans_nodes, on_floor, Anchors, Frontier, Node};
 use ledger::*;
 use mode::Mode;
+use tour::{costs_from, open_tour_from, Tour, TourInputs};
 
 /// The THP planner. Cloneable, so that a bench can replay one planning step from a saved state.
 #[derive(Clone)]
@@ -122,41 +122,54 @@ pub struct Thp {
     cfg: ThpConfig,
     /// The rules no paper has (`[additions]`; the module doc lists THP's).
     rules: Additions,
-    field_cfg: FieldConfig,
-    view_m: f64,
     near_unknown_m: f64,
     goal_tolerance_m: f64,
     radius_m: f64,
-    field: Option<TensorField>,
-    next_key_frame_s: f64,
-    anchors: Vec<Anchor>,
-    /// Degenerate-point ids already turned into anchors (or deliberately ignored).
-    known_ids: BTreeSet<u64>,
-    /// `P*` is not empty: anchors appeared since the last TSP solve.
-    new_anchors: bool,
-    /// Tour order of node keys from the last solve.
-    tour: Vec<usize>,
-    tour_points: Vec<Point2<f64>>,
+    key_frames: KeyFrames,
+    /// The anchors and the grouping of frontiers around them (Alg. 2).
+    anchors: Anchors,
+    /// The online tour over the groups (Alg. 1).
+    tour: Tour,
     visits: FrontierVisits,
     mode: Mode,
     /// Where the robot was when the action in flight began.
     action_from: Point2<f64>,
-    tsp_ms: Option<f64>,
     /// Buffers of the planning step's cell costs and the robot's distance field, kept between steps.
     step_costs: plan::StepCosts,
     flood: DistanceField,
-    /// Cached rows of TSP path costs between access cells.
-    cost_rows: tour::CostRows,
-    /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
-    row_searches: Vec<Search>,
     stats: ThpStats,
     ledger: PathLedger,
-    /// Escapes started toward each target cell.
-    escape_tries: BTreeMap<usize, u32>,
-    /// Where the robot has been (the way an escape may squeeze back through).
-    trail: goals::Trail,
+    escapes: goals::Escapes,
     /// Views of the unknown volume before `Complete`, if on (not in the paper; see the module doc).
     volume_views: Option<VolumeViews>,
+}
+
+/// The tensor field THP plans in, computed again at each key frame (every `thp.field_period_s`).
+#[derive(Clone)]
+struct KeyFrames {
+    cfg: FieldConfig,
+    field: Option<TensorField>,
+    next_s: f64,
+}
+
+impl KeyFrames {
+    /// Updates the field from `map` if a key frame is due at `time_s`. Returns `None` if none was
+    /// due, else whether it was the first.
+    fn update(&mut self, map: &Map, time_s: f64, period_s: f64) -> Result<Option<bool>> {
+        if time_s + 1e-9 < self.next_s {
+            return Ok(None);
+        }
+        let first = self.field.is_none();
+        let field = self.field.get_or_insert_with(|| {
+            let mut f = TensorField::new(*map.grid(), &self.cfg);
+            // THP reads the planning field only along its pathlines (`pathline_computing`).
+            f.set_lazy_planning_field(true);
+            f
+        });
+        field.update(map)?;
+        self.next_s = time_s + period_s;
+        Ok(Some(first))
+    }
 }
 
 /// What THP takes from the config: its own section, the field's, and the shared planning parameters
@@ -185,14 +198,6 @@ impl From<&Config> for ThpParams {
 #[derive(Clone, Debug, Default)]
 struct ThpStats {
     key_frames: Count,
-    anchors_degenerate: Count,
-    anchors_frontier: Count,
-    anchors_visited: Count,
-    groups_split: Count,
-    tsp_solves: Count,
-    tsp_nodes_max: Count,
-    tsp_nodes_total: Count,
-    cost_rows: Count,
     escapes: Count,
     escapes_given_up: Count,
     astar_new_goal: Count,
@@ -205,10 +210,6 @@ struct ThpStats {
     distant_views: Count,
     groups_left_unfinished: Count,
     returns_to_unfinished: Count,
-    /// Tours that start at a group the robot does not reach at least cost (its least-cost frontier
-    /// farther than another group's), and the sum of those extra path costs, metres.
-    tour_starts_not_nearest_group: Count,
-    tour_start_extra_m: Count,
     /// Metres driven per goal kind (`path_m_*`), indexed by [`GoalKind`].
     path_m: [Count; 9],
 }
@@ -218,30 +219,24 @@ impl Thp {
         Thp {
             cfg: params.thp.clone(),
             rules: params.plan.additions.clone(),
-            field_cfg: params.field.clone(),
-            view_m: params.thp.view_distance_m,
             near_unknown_m: params.plan.search.near_unknown_radius_m,
             goal_tolerance_m: params.plan.motion.goal_tolerance_m,
             radius_m: params.plan.robot.radius_m,
-            field: None,
-            next_key_frame_s: 0.0,
-            anchors: Vec::new(),
-            known_ids: BTreeSet::new(),
-            new_anchors: false,
-            tour: Vec::new(),
-            tour_points: Vec::new(),
+            key_frames: KeyFrames {
+                cfg: params.field.clone(),
+                field: None,
+                next_s: 0.0,
+            },
+            anchors: Anchors::default(),
+            tour: Tour::default(),
             visits: FrontierVisits::new((&params.plan.additions).into()),
             mode: Mode::Idle,
             action_from: Point2::origin(),
-            tsp_ms: None,
             step_costs: super::StepCosts::default(),
             flood: DistanceField::default(),
-            cost_rows: tour::CostRows::default(),
-            row_searches: Vec::new(),
             stats: ThpStats::default(),
             ledger: PathLedger::default(),
-            escape_tries: BTreeMap::new(),
-            trail: goals::Trail::default(),
+            escapes: goals::Escapes::default(),
             volume_views: VolumeViews::new(&params.volume_views),
         }
     }
@@ -249,30 +244,27 @@ impl Thp {
 
 impl FieldPlanner for Thp {
     fn update_field(&mut self, map: &Map, _pose: Pose2, time_s: f64) -> Result<()> {
-        if time_s + 1e-9 < self.next_key_frame_s {
+        let Some(first) = self
+            .key_frames
+            .update(map, time_s, self.cfg.field_period_s)?
+        else {
             return Ok(());
-        }
-        let first = self.field.is_none();
-        let field = self.field.get_or_insert_with(|| {
-            let mut f = TensorField::new(*map.grid(), &self.field_cfg);
-            // THP reads the planning field only along its pathlines (`pathline_computing`).
-            f.set_lazy_planning_field(true);
-            f
-        });
-        field.update(map)?;
-        self.next_key_frame_s = time_s + self.cfg.field_period_s;
+        };
         self.stats.key_frames.add(1.0);
-        let before = self.anchors.len();
-        self.take_degenerate_points(map, first);
-        if self.anchors.len() > before {
-            // Alg. 1: new points break the tour loop; the next plan re-solves.
-            self.new_anchors = true;
-        }
+        // Eq. 5: the key frame's degenerate points become anchors; new ones break the tour loop
+        // (Alg. 1) and the next plan re-solves.
+        let field = self.key_frames.field.as_ref().expect("updated above");
+        let points: Vec<(u64, Point2<f64>)> =
+            field.points().iter().map(|p| (p.id, p.pos())).collect();
+        let grid = map.grid();
+        // Table 3's ablation (`thp.extension = false`) routes over the first key frame's points.
+        let take_new = self.cfg.extension || first;
+        (self.anchors).take_points(&points, |p| on_floor(map, grid, p), take_new);
         Ok(())
     }
 
     fn field(&self) -> Option<&TensorField> {
-        self.field.as_ref()
+        self.key_frames.field.as_ref()
     }
 }
 
@@ -280,9 +272,11 @@ impl Thp {
     /// The next action (see [`Planner::plan`]).
     fn next_action(&mut self, ctx: &mut PlanContext) -> Result<Action> {
         self.note_position(ctx.pose.position());
-        self.trail.visit(ctx.map.grid(), ctx.pose.position());
+        self.escapes
+            .trail
+            .visit(ctx.map.grid(), ctx.pose.position());
         self.visits.ensure(ctx.map.grid());
-        self.tsp_ms = None;
+        self.tour.take_solve_ms();
         if self.mode.unblock() {
             self.stats.looks_when_blocked.add(1.0);
             return Ok(Action::LookAround);
@@ -292,13 +286,12 @@ impl Thp {
         // aim. A goal outside the tour (a step back for the blind zone, a look through a gap)
         // stays through new anchors too; the tour is re-solved once it is done. Re-chosen at every
         // segment end, two blind-zone frontiers whose viewpoints lie beside each other sent the
-        // robot back and forth between them without a look until the run was stuck
-        // (`plan_e0640c1cbe` seed 3 with a 2 cm arrival, BENCHMARKS.md).
+        // robot back and forth between them without a look until the run was stuck.
         let keep_goal = self.mode.goal().is_some_and(|g| {
             g.visit.is_open(ctx.map)
                 && !g.final_segment
                 && (!g.visit.near_view || !self.path_invalid(ctx, g))
-                && (!self.new_anchors || g.tour_node.is_none())
+                && (!self.anchors.has_new() || g.tour_node.is_none())
         });
         if !keep_goal {
             if let Choice::Act(action) = self.choose_goal(ctx)? {
@@ -334,7 +327,7 @@ impl Thp {
             };
             let cells = self
                 .visits
-                .cut_short(&grid, &path.cells, goal.visit.aim, self.view_m)
+                .cut_short(&grid, &path.cells, goal.visit.aim, self.cfg.view_distance_m)
                 .to_vec();
             self.set_goal(ctx, goal.visit, goal.tour_node, &cells);
         }
@@ -352,14 +345,16 @@ impl Planner for Thp {
         self.action_from = ctx.pose.position();
         Ok(Plan::new(
             action,
-            self.tour_points.clone(),
-            self.tsp_ms.take(),
+            self.tour.points().to_vec(),
+            self.tour.take_solve_ms(),
         ))
     }
 
     fn is_outdated(&mut self, ctx: &PlanContext, action: &Action) -> bool {
         self.note_position(ctx.pose.position());
-        self.trail.visit(ctx.map.grid(), ctx.pose.position());
+        self.escapes
+            .trail
+            .visit(ctx.map.grid(), ctx.pose.position());
         if !matches!(action, Action::Follow { .. }) {
             return false;
         }
@@ -371,7 +366,7 @@ impl Planner for Thp {
             self.mode.interrupt();
             return true;
         }
-        if self.new_anchors && goal.tour_node.is_some() {
+        if self.anchors.has_new() && goal.tour_node.is_some() {
             // Alg. 1: new anchors break the loop and the TSP is re-solved.
             self.mode.interrupt();
             return true;
@@ -407,14 +402,6 @@ impl Planner for Thp {
         super::counted(
             [
                 ("key_frames", s.key_frames),
-                ("anchors_degenerate", s.anchors_degenerate),
-                ("anchors_frontier", s.anchors_frontier),
-                ("anchors_visited", s.anchors_visited),
-                ("groups_split", s.groups_split),
-                ("tsp_solves", s.tsp_solves),
-                ("tsp_nodes_max", s.tsp_nodes_max),
-                ("tsp_nodes_total", s.tsp_nodes_total),
-                ("cost_rows", s.cost_rows),
                 ("escapes", s.escapes),
                 ("escapes_given_up", s.escapes_given_up),
                 ("astar_new_goal", s.astar_new_goal),
@@ -428,13 +415,10 @@ impl Planner for Thp {
                 ("volume_views", VolumeViews::taken(&self.volume_views)),
                 ("groups_left_unfinished", s.groups_left_unfinished),
                 ("returns_to_unfinished", s.returns_to_unfinished),
-                (
-                    "tour_starts_not_nearest_group",
-                    s.tour_starts_not_nearest_group,
-                ),
-                ("tour_start_extra_m", s.tour_start_extra_m),
             ]
             .into_iter()
+            .chain(self.anchors.stats())
+            .chain(self.tour.stats())
             .chain(self.visits.stats())
             .chain(GoalKind::ALL.map(|k| (k.key(), s.path_m[k as usize]))),
         )

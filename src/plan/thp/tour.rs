@@ -1,161 +1,147 @@
-//! The online TSP over the groups (THP §3.3, Alg. 1, Eq. 6): where each tour starts, and the path
-//! costs between the groups' access cells. The volume views before `Complete` are ordered by the
-//! same kind of tour (`additions.volume_view_tour`).
+//! The online TSP over the groups (THP §3.3, Alg. 1, Eq. 6): when the tour is solved again, where
+//! it starts, and the path costs between the groups' access cells, cached between solves.
 
-use super::*;
-
-/// Path cost from the robot to a node's anchor (its position): from the robot's distance field where
-/// the anchor's cell is reachable, else through its nearest member (member cost plus the straight
-/// distance on to the anchor), as a frontier anchor's centroid may fall off the known floor.
-pub(super) fn anchor_cost(
-    grid: &GridSpec,
-    df: &DistanceField,
-    node: &Node,
-    fronts: &[Frontier],
-) -> f32 {
-    grid.cell_of(node.pos)
-        .and_then(|c| df.cost_to(grid.index(c)))
-        .unwrap_or_else(|| {
-            node.members
-                .iter()
-                .map(|&m| fronts[m].cost + (fronts[m].pos - node.pos).norm() as f32)
-                .fold(f32::INFINITY, f32::min)
-        })
-}
-
-/// Open volume views within this of a kept one do not become tour nodes of their own: from about a
-/// metre apart a view turned once shows much the same volume, metres.
-const VOLUME_VIEW_NODE_SPACING_M: f64 = 1.0;
+use super::grouping::{Frontier, Node};
+use crate::config::{Grouping, ThpConfig, TourCosts, TourStart};
+use crate::grid::GridSpec;
+use crate::map::Map;
+use crate::plan::search::{DistanceField, Search};
+use crate::plan::tsp::{self, CostMatrix};
+use crate::plan::{Count, StepCosts};
+use nalgebra::Point2;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// A tour's first group whose entry is farther than the nearest group's by more than this counts
 /// as not starting at the nearest group (`tour_starts_not_nearest_group`), metres: about a cell.
 const TOUR_START_SLACK_M: f64 = 0.1;
 
-/// At most this many volume views (the largest gains after thinning) make one tour.
-const VOLUME_VIEW_NODES_MAX: usize = 24;
+/// The tour of Alg. 1: the node keys in the order the robot visits them, the cached path costs it
+/// is solved with, and its counters. THP asks it for the next node at every goal choice
+/// ([`Tour::plan`]); the volume views before `Complete` borrow its cost cache
+/// ([`Tour::cost_matrix`]).
+#[derive(Clone, Default)]
+pub(super) struct Tour {
+    /// Node keys in tour order, and their positions (for the log).
+    order: Vec<usize>,
+    points: Vec<Point2<f64>>,
+    /// Cached rows of path costs between access cells.
+    cost_rows: CostRows,
+    /// Search workspaces for computing cost rows in parallel (one per worker, made on first use).
+    row_searches: Vec<Search>,
+    /// Time spent solving since [`Tour::take_solve_ms`], milliseconds.
+    solve_ms: Option<f64>,
+    stats: TourStats,
+}
 
-impl Thp {
-    /// The next volume view to drive to, marked taken; `None` when views are off or none is open.
-    ///
-    /// With `additions.volume_view_tour` (not in the paper) the open views, thinned to one per
-    /// [`VOLUME_VIEW_NODE_SPACING_M`], are ordered by a fixed-start open TSP from the robot over
-    /// their path costs, as Alg. 1 orders anchors, and the first is taken; the tour is solved again
-    /// at every view, since each view changes what the others would still show. Without it, the
-    /// best gain per metre one view at a time, as GREEDY does ([`VolumeViews::next`]).
-    pub(super) fn next_volume_view(
+/// The tour's counters (`planner_stats`).
+#[derive(Clone, Copy, Debug, Default)]
+struct TourStats {
+    solves: Count,
+    nodes_max: Count,
+    nodes_total: Count,
+    cost_rows: Count,
+    /// Tours that start at a group the robot does not reach at least cost (its least-cost frontier
+    /// farther than another group's), and the sum of those extra path costs, metres.
+    starts_not_nearest_group: Count,
+    start_extra_m: Count,
+}
+
+/// What one planning step gives the tour: the map, the time, the step costs and the robot's
+/// distance field under them.
+pub(super) struct TourInputs<'a> {
+    pub(super) map: &'a Map,
+    pub(super) time_s: f64,
+    pub(super) costs: &'a StepCosts,
+    pub(super) df: &'a DistanceField,
+}
+
+impl Tour {
+    /// Alg. 1: solves the tour over `nodes` again when `P*` is not empty (`new_anchors`), when a
+    /// node is not on it, or at every choice without anchor grouping; else follows it, dropping
+    /// the nodes that are gone (visited anchors). `current` is the node the robot is scanning, kept
+    /// as the start of a new tour under `thp.finish_group_first`. Returns the tour's first node and
+    /// its least-cost frontier; `None` (and no tour) when there is no node.
+    pub(super) fn plan(
         &mut self,
-        ctx: &mut PlanContext,
-        costs: &plan::StepCosts,
-        df: &DistanceField,
-    ) -> Option<super::super::frontier::VolumeView> {
-        let grid = *ctx.map.grid();
-        let mut views = self.volume_views.take()?;
-        let next = if self.rules.volume_view_tour {
-            let open = views.thinned(
-                ctx.map,
-                df,
-                VOLUME_VIEW_NODE_SPACING_M,
-                VOLUME_VIEW_NODES_MAX,
-            );
-            let first = match open.len() {
-                0 => None,
-                1 => Some(open[0]),
-                _ => {
-                    let cells: Vec<usize> = open.iter().map(|v| v.cell).collect();
-                    let m = self.cost_matrix(ctx, costs, &cells);
-                    Some(open[self.tour_from_robot(&m, df, &cells)[0]])
-                }
-            };
-            if let Some(v) = first {
-                views.mark_taken(&grid, v.cell);
-            }
-            first
+        at: &TourInputs,
+        cfg: &ThpConfig,
+        nodes: &[Node],
+        fronts: &[Frontier],
+        new_anchors: bool,
+        current: Option<usize>,
+    ) -> Option<(usize, Frontier)> {
+        if nodes.is_empty() {
+            self.order.clear();
+            self.points.clear();
+            return None;
+        }
+        if needs_solve(&self.order, nodes, new_anchors, cfg.grouping) {
+            self.solve(at, cfg, nodes, fronts, current);
         } else {
-            views.next(ctx.map, df)
-        };
-        self.volume_views = Some(views);
-        next
+            self.keep_nodes(nodes);
+        }
+        let first = self.order[0];
+        let node = nodes
+            .iter()
+            .find(|n| n.key == first)
+            .expect("tour covers the nodes");
+        Some((first, node.nearest_member(fronts).clone()))
     }
 
-    /// The open tour over the nodes at `cells` (path costs `m` between them) with the robot's cell
-    /// as its fixed start: the nodes' indices in tour order, the robot left out. The robot's row
-    /// holds its distance field to each cell; no open tour comes back to its start, so its column is
-    /// never used (filled symmetrically).
-    fn tour_from_robot(&self, m: &CostMatrix, df: &DistanceField, cells: &[usize]) -> Vec<usize> {
-        let n = m.n();
-        let from_robot: Vec<f64> = cells
+    /// Follows the tour: drops the keys no node has any more, and keeps the order.
+    fn keep_nodes(&mut self, nodes: &[Node]) {
+        let keep: Vec<(usize, Point2<f64>)> = self
+            .order
             .iter()
-            .map(|&c| df.cost_to(c).map_or(f64::INFINITY, f64::from))
+            .zip(&self.points)
+            .filter(|(k, _)| nodes.iter().any(|n| n.key == **k))
+            .map(|(k, p)| (*k, *p))
             .collect();
-        let with_robot = CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
-            (true, true) => 0.0,
-            (true, false) => from_robot[j],
-            (false, true) => from_robot[i],
-            (false, false) => m.get(i, j),
-        });
-        tsp::solve(&with_robot, n, self.cfg.exact_tsp_max_nodes).order[1..].to_vec()
+        self.order = keep.iter().map(|k| k.0).collect();
+        self.points = keep.iter().map(|k| k.1).collect();
+    }
+
+    /// The tour's node positions in order (drawn in the log).
+    pub(super) fn points(&self) -> &[Point2<f64>] {
+        &self.points
+    }
+
+    /// The solve time since the last call, milliseconds; `None` if the tour was not solved.
+    pub(super) fn take_solve_ms(&mut self) -> Option<f64> {
+        self.solve_ms.take()
     }
 
     /// Solves the fixed-start open TSP over `nodes` (Eq. 6) with path costs between the nodes'
-    /// access cells (`thp.tour_costs`: their anchors, or their least-cost members). Sets the tour
-    /// (node keys in order). The start, by `thp.tour_start` (and `thp.finish_group_first`):
+    /// access cells ([`access_cells`]), from the start [`Tour::plan`] and `thp.tour_start` say:
+    /// - `current`, if given;
     /// - `robot`: the robot's cell is an extra node, the fixed start, with the robot's path costs
-    ///   to each access cell; the first group is the one the cheapest whole tour begins with.
+    ///   to each access cell; the first group is the one the cheapest whole tour begins with;
     /// - `nearest_anchor` (default): the node whose anchor is nearest the robot by path cost
-    ///   (Alg. 1, "start at the anchor nearest the robot"), even when it lies behind the robot and
-    ///   the rest ahead.
-    pub(super) fn solve_tour(
+    ///   (Alg. 1, "start at the anchor nearest the robot", [`nearest_anchor_node`]), even when it
+    ///   lies behind the robot and the rest ahead.
+    fn solve(
         &mut self,
-        ctx: &mut PlanContext,
-        costs: &plan::StepCosts,
-        df: &DistanceField,
+        at: &TourInputs,
+        cfg: &ThpConfig,
         nodes: &[Node],
         fronts: &[Frontier],
+        current: Option<usize>,
     ) {
         let t = Instant::now();
-        // Where each node's row of path costs starts (`thp.tour_costs`): Eq. 6 takes dist between
-        // anchors; an anchor that is a frontier's centroid or a k-means centre may lie off the
-        // known floor, and then its least-cost frontier stands in, as it does for every node with
-        // `frontiers`.
-        let grid = *ctx.map.grid();
-        let access: Vec<usize> = nodes
-            .iter()
-            .map(|n| match self.cfg.tour_costs {
-                TourCosts::Anchors => grid
-                    .cell_of(n.pos)
-                    .map(|c| grid.index(c))
-                    .filter(|&c| ctx.map.is_traversable(c) && df.cost_to(c).is_some())
-                    .unwrap_or_else(|| n.nearest_member(fronts).aim),
-                TourCosts::Frontiers => n.nearest_member(fronts).aim,
-            })
-            .collect();
-        // The tour's start (room the paper leaves): Alg. 1 starts at the anchor nearest the robot,
-        // while Alg. 2 scans a group until it is empty. Read together, a re-solve that new anchors
-        // trigger in the middle of a group may keep that group as the start
-        // (`thp.finish_group_first`), so the robot does not leave a half-scanned group for a nearer
-        // anchor and come back to it. Off by default: on real plans it removed those returns but
-        // lengthened the whole path (the nearest anchor's group is usually the cheaper detour).
-        let current = self
-            .mode
-            .goal()
-            .filter(|_| self.cfg.finish_group_first)
-            .and_then(|g| g.tour_node)
-            .and_then(|k| nodes.iter().position(|n| n.key == k));
-        let m = self.cost_matrix(ctx, costs, &access);
-        let order: Vec<usize> = match (current, self.cfg.tour_start) {
-            (Some(start), _) => tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order,
-            (None, TourStart::Robot) => self.tour_from_robot(&m, df, &access),
+        let grid = *at.map.grid();
+        let access = access_cells(at.map, at.df, nodes, fronts, cfg.tour_costs);
+        let start = current.and_then(|k| nodes.iter().position(|n| n.key == k));
+        let m = self.cost_matrix(at, cfg, &access);
+        let order: Vec<usize> = match (start, cfg.tour_start) {
+            (Some(start), _) => tsp::solve(&m, start, cfg.exact_tsp_max_nodes).order,
+            (None, TourStart::Robot) => {
+                open_tour_from(&m, &costs_from(at.df, &access), cfg.exact_tsp_max_nodes)
+            }
             (None, TourStart::NearestAnchor) => {
-                let start = (0..nodes.len())
-                    .min_by(|&a, &b| {
-                        let (fa, fb) = (
-                            anchor_cost(&grid, df, &nodes[a], fronts),
-                            anchor_cost(&grid, df, &nodes[b], fronts),
-                        );
-                        fa.total_cmp(&fb).then(a.cmp(&b))
-                    })
-                    .expect("at least one node");
-                tsp::solve(&m, start, self.cfg.exact_tsp_max_nodes).order
+                let start = nearest_anchor_node(&grid, at.df, nodes, fronts);
+                tsp::solve(&m, start, cfg.exact_tsp_max_nodes).order
             }
         };
         // How much nearer another group's entry was than the first group's (a cause of THP's
@@ -166,42 +152,38 @@ impl Thp {
         if let Some(&first) = order.first() {
             let extra = entry(first) - nearest;
             if extra.is_finite() && extra > TOUR_START_SLACK_M {
-                self.stats.tour_starts_not_nearest_group.add(1.0);
-                self.stats.tour_start_extra_m.add(extra);
+                self.stats.starts_not_nearest_group.add(1.0);
+                self.stats.start_extra_m.add(extra);
             }
         }
-        self.tour = order.iter().map(|&i| nodes[i].key).collect();
-        self.tour_points = order.iter().map(|&i| nodes[i].pos).collect();
-        self.new_anchors = false;
+        self.order = order.iter().map(|&i| nodes[i].key).collect();
+        self.points = order.iter().map(|&i| nodes[i].pos).collect();
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        self.tsp_ms = Some(self.tsp_ms.unwrap_or(0.0) + ms);
-        self.stats.tsp_solves.add(1.0);
+        self.solve_ms = Some(self.solve_ms.unwrap_or(0.0) + ms);
+        self.stats.solves.add(1.0);
         let n = nodes.len() as f64;
-        self.stats.tsp_nodes_max.raise_to(n);
-        self.stats.tsp_nodes_total.add(n);
+        self.stats.nodes_max.raise_to(n);
+        self.stats.nodes_total.add(n);
     }
 
-    /// Path costs between the nodes' access cells (Eq. 6's dist): one Dijkstra per node
+    /// Path costs between `access` cells (Eq. 6's dist): one Dijkstra per cell
     /// ([`Search::costs_to_targets`]), cached in [`CostRows`] (which says when a row is searched
     /// again and which pairs it then searches for).
     pub(super) fn cost_matrix(
         &mut self,
-        ctx: &mut PlanContext,
-        costs: &plan::StepCosts,
+        at: &TourInputs,
+        cfg: &ThpConfig,
         access: &[usize],
     ) -> CostMatrix {
-        let grid = *ctx.map.grid();
-        let now = ctx.time_s;
+        let grid = *at.map.grid();
+        let (now, costs) = (at.time_s, at.costs);
         self.cost_rows.keep_sources(access);
         if access.len() < 2 {
             return CostMatrix::new(access.len());
         }
-        let jobs = self.cost_rows.searches(
-            access,
-            now,
-            self.cfg.cost_refresh_s,
-            self.cfg.cost_refresh_rows_max,
-        );
+        let jobs =
+            self.cost_rows
+                .searches(access, now, cfg.cost_refresh_s, cfg.cost_refresh_rows_max);
         // The searches are independent Dijkstras: spread over the thread pool, each worker with its
         // own search workspace (the result does not depend on the thread count).
         let workers = jobs.len().min(rayon::current_num_threads()).max(1);
@@ -241,6 +223,112 @@ impl Thp {
         }
         self.cost_rows.matrix(access)
     }
+
+    /// The tour's counters, under their `planner_stats` names.
+    pub(super) fn stats(&self) -> [(&'static str, Count); 6] {
+        let s = &self.stats;
+        [
+            ("tsp_solves", s.solves),
+            ("tsp_nodes_max", s.nodes_max),
+            ("tsp_nodes_total", s.nodes_total),
+            ("cost_rows", s.cost_rows),
+            ("tour_starts_not_nearest_group", s.starts_not_nearest_group),
+            ("tour_start_extra_m", s.start_extra_m),
+        ]
+    }
+}
+
+/// Whether Alg. 1 breaks its loop: new anchors (`P*` not empty) or a node the tour does not hold.
+/// Without anchor grouping the nodes are made anew at every choice, so the tour is always solved.
+fn needs_solve(order: &[usize], nodes: &[Node], new_anchors: bool, grouping: Grouping) -> bool {
+    match grouping {
+        Grouping::Anchors => new_anchors || !nodes.iter().all(|n| order.contains(&n.key)),
+        Grouping::None | Grouping::Kmeans => true,
+    }
+}
+
+/// Where each node's row of path costs starts (`thp.tour_costs`). Eq. 6 takes dist between
+/// anchors; an anchor that is a frontier's centroid or a k-means centre may lie off the known
+/// floor (or out of the robot's reach), and then its least-cost frontier stands in, as it does for
+/// every node with `frontiers`.
+pub(super) fn access_cells(
+    map: &Map,
+    df: &DistanceField,
+    nodes: &[Node],
+    fronts: &[Frontier],
+    tour_costs: TourCosts,
+) -> Vec<usize> {
+    let grid = map.grid();
+    nodes
+        .iter()
+        .map(|n| match tour_costs {
+            TourCosts::Anchors => grid
+                .cell_of(n.pos)
+                .map(|c| grid.index(c))
+                .filter(|&c| map.is_traversable(c) && df.cost_to(c).is_some())
+                .unwrap_or_else(|| n.nearest_member(fronts).aim),
+            TourCosts::Frontiers => n.nearest_member(fronts).aim,
+        })
+        .collect()
+}
+
+/// Path cost from the robot to a node's anchor (its position): from the robot's distance field where
+/// the anchor's cell is reachable, else through its nearest member (member cost plus the straight
+/// distance on to the anchor), as a frontier anchor's centroid may fall off the known floor.
+fn anchor_cost(grid: &GridSpec, df: &DistanceField, node: &Node, fronts: &[Frontier]) -> f32 {
+    grid.cell_of(node.pos)
+        .and_then(|c| df.cost_to(grid.index(c)))
+        .unwrap_or_else(|| {
+            node.members
+                .iter()
+                .map(|&m| fronts[m].cost + (fronts[m].pos - node.pos).norm() as f32)
+                .fold(f32::INFINITY, f32::min)
+        })
+}
+
+/// Alg. 1's start: the node whose anchor the robot reaches at least cost ([`anchor_cost`]; ties by
+/// index). `nodes` must not be empty.
+fn nearest_anchor_node(
+    grid: &GridSpec,
+    df: &DistanceField,
+    nodes: &[Node],
+    fronts: &[Frontier],
+) -> usize {
+    (0..nodes.len())
+        .min_by(|&a, &b| {
+            let (fa, fb) = (
+                anchor_cost(grid, df, &nodes[a], fronts),
+                anchor_cost(grid, df, &nodes[b], fronts),
+            );
+            fa.total_cmp(&fb).then(a.cmp(&b))
+        })
+        .expect("at least one node")
+}
+
+/// The robot's path costs to `cells` in its distance field (infinite where unreachable).
+pub(super) fn costs_from(df: &DistanceField, cells: &[usize]) -> Vec<f64> {
+    cells
+        .iter()
+        .map(|&c| df.cost_to(c).map_or(f64::INFINITY, f64::from))
+        .collect()
+}
+
+/// The open tour over `m`'s nodes from an extra start outside them, with `from_start[j]` the cost
+/// from that start to node `j`: the nodes' indices in tour order, the start left out. No open tour
+/// comes back to its start, so the start's column is never used (it is filled symmetrically).
+pub(super) fn open_tour_from(
+    m: &CostMatrix,
+    from_start: &[f64],
+    exact_max_nodes: usize,
+) -> Vec<usize> {
+    let n = m.n();
+    let with_start = CostMatrix::from_fn(n + 1, |i, j| match (i == n, j == n) {
+        (true, true) => 0.0,
+        (true, false) => from_start[j],
+        (false, true) => from_start[i],
+        (false, false) => m.get(i, j),
+    });
+    tsp::solve(&with_start, n, exact_max_nodes).order[1..].to_vec()
 }
 
 /// Cached rows of TSP path costs: per source cell, when its Dijkstra ran and what it found.
@@ -353,6 +441,87 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    fn node(key: usize) -> Node {
+        Node {
+            key,
+            pos: Point2::new(key as f64, 0.0),
+            members: vec![0],
+        }
+    }
+
+    #[test]
+    fn the_tour_is_solved_again_only_when_alg_1_breaks_its_loop() {
+        let nodes = [node(3), node(7)];
+        // Every node on the tour and no new anchor: follow it.
+        assert!(!needs_solve(&[7, 3, 9], &nodes, false, Grouping::Anchors));
+        // New anchors (P* not empty), or a node the tour lacks: solve.
+        assert!(needs_solve(&[7, 3, 9], &nodes, true, Grouping::Anchors));
+        assert!(needs_solve(&[7], &nodes, false, Grouping::Anchors));
+        // Nodes made anew at every choice: always solve.
+        assert!(needs_solve(&[7, 3], &nodes, false, Grouping::None));
+        assert!(needs_solve(&[7, 3], &nodes, false, Grouping::Kmeans));
+    }
+
+    #[test]
+    fn following_the_tour_drops_visited_nodes_and_keeps_the_order() {
+        let mut tour = Tour {
+            order: vec![9, 3, 5, 7],
+            points: [9.0, 3.0, 5.0, 7.0].map(|x| Point2::new(x, 0.0)).to_vec(),
+            ..Tour::default()
+        };
+        tour.keep_nodes(&[node(7), node(3)]);
+        assert_eq!(tour.order, vec![3, 7]);
+        assert_eq!(
+            tour.points,
+            vec![Point2::new(3.0, 0.0), Point2::new(7.0, 0.0)]
+        );
+    }
+
+    /// The least cost of an open tour from an outside start, by trying every order.
+    fn brute_force_from(m: &CostMatrix, from_start: &[f64]) -> f64 {
+        fn go(m: &CostMatrix, at: usize, left: &mut Vec<usize>, so_far: f64, best: &mut f64) {
+            if left.is_empty() {
+                *best = best.min(so_far);
+            }
+            for k in 0..left.len() {
+                let next = left.remove(k);
+                go(m, next, left, so_far + m.get(at, next), best);
+                left.insert(k, next);
+            }
+        }
+        let mut best = f64::INFINITY;
+        for first in 0..m.n() {
+            let mut left: Vec<usize> = (0..m.n()).filter(|&j| j != first).collect();
+            go(m, first, &mut left, from_start[first], &mut best);
+        }
+        best
+    }
+
+    #[test]
+    fn the_tour_from_the_robot_is_the_cheapest_open_path_from_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for n in 1..=6 {
+            for _ in 0..20 {
+                let pts: Vec<Point2<f64>> = (0..=n)
+                    .map(|_| Point2::new(rng.random_range(0.0..10.0), rng.random_range(0.0..10.0)))
+                    .collect();
+                let m = CostMatrix::from_fn(n, |i, j| (pts[i] - pts[j]).norm());
+                let from: Vec<f64> = (0..n).map(|j| (pts[n] - pts[j]).norm()).collect();
+                let order = open_tour_from(&m, &from, 10);
+                let mut sorted = order.clone();
+                sorted.sort_unstable();
+                assert_eq!(
+                    sorted,
+                    (0..n).collect::<Vec<_>>(),
+                    "each node once, start left out"
+                );
+                let cost = from[order[0]] + tsp::open_path_cost(&m, &order);
+                let best = brute_force_from(&m, &from);
+                assert!((cost - best).abs() < 1e-9, "n = {n}: {cost} > {best}");
+            }
+        }
+    }
 
     fn row(pairs: &[(usize, f64)]) -> BTreeMap<usize, f64> {
         pairs.iter().copied().collect()

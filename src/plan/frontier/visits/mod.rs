@@ -53,10 +53,9 @@ impl From<&Additions> for VisitRules {
 /// `additions.blind_zone_look_first_m` (0 by default: always).
 ///
 /// Left until no other frontier was left, such a frontier was seen only if the robot's way passed
-/// it. A goal across the plan left it behind, and the robot drove back for it at the end: THP on
-/// `plan_ade2a47d0b`, random start 1, made four such round trips of 6–17 m (99.0 m in all; 64.1 m
-/// with this rule). On 66 real plans × 3 random starts THP drove 4.0 m less a run and GREEDY 1.2 m
-/// (BENCHMARKS.md, where thresholds from 0 to 9 m are compared).
+/// it. A goal across the plan left it behind, and the robot drove back for it at the end, in round
+/// trips of 6–17 m. On 66 real plans × 3 random starts this rule makes THP drive 4.0 m less a run and
+/// GREEDY 1.2 m; thresholds from 0 to 9 m were compared (docs/experiments.md).
 pub fn blind_zone_first(rules: &Additions, goal_cost: f32) -> bool {
     rules.blind_zone_step_back && f64::from(goal_cost) > rules.blind_zone_look_first_m.get()
 }
@@ -200,11 +199,8 @@ impl FrontierVisits {
     /// reopened cell next gets one look from a viewpoint chosen to see it
     /// ([`FrontierVisits::sighted_viewpoint`]: away from the earlier ones where any other sees it),
     /// and that look gives it up again. Returns the cells reopened.
-    ///
-    /// Before, only the first reopening took a `Possible` sight and later ones needed `Sure`, and
-    /// the next look came from the same viewpoint as the last whenever the map had not changed; a
-    /// look that missed a voxel at the edge of the view from one place says little about another
-    /// (BENCHMARKS.md, "Looks from a new place").
+    /// Every reopening takes a `Possible` sight, and the next look comes from a new place: a look
+    /// that missed a voxel at the edge of the view from one place says little about another.
     ///
     /// The map at the end of a run is not the map of the look that gave a cell up: on real plans
     /// the ground truth's camera saw the voxels beside frontiers left at `complete` from cells the
