@@ -160,7 +160,10 @@ fn live_run_sends_the_logged_messages_and_keeps_its_result() {
     assert!(clock.windows(2).all(|w| w[0].1 < w[1].1), "{clock:?}");
     for (i, (topic, stamp, _)) in got.iter().enumerate() {
         let now = clock.iter().take_while(|c| c.0 <= i).last().map(|c| c.1);
-        assert!(now >= Some(*stamp), "{topic} at {stamp} ns before the clock: {now:?}");
+        assert!(
+            now >= Some(*stamp),
+            "{topic} at {stamp} ns before the clock: {now:?}"
+        );
     }
     let last = got.iter().map(|g| g.1).max();
     assert_eq!(clock.last().map(|c| c.1), last);

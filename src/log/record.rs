@@ -652,7 +652,11 @@ mod tests {
         // A real frame: a camera 2 m in front of a wall that fills its view sees it at 2000 mm.
         let cfg = crate::Config::default().camera;
         let mut wall = crate::scene::TriMesh::default();
-        crate::sensor::raycast::testing::push_box(&mut wall, [2.0, -50.0, -50.0], [2.1, 50.0, 50.0]);
+        crate::sensor::raycast::testing::push_box(
+            &mut wall,
+            [2.0, -50.0, -50.0],
+            [2.1, 50.0, 50.0],
+        );
         let bvh = crate::sensor::MeshBvh::new(&wall).unwrap();
         let frame = crate::sensor::DepthCamera::new(&cfg).capture(&bvh, Pose2::new(0.0, 0.0, 0.0));
         let v = depth_message(0.0, &frame);
