@@ -111,14 +111,20 @@ fn subscribe(addr: &str, topics: &[&str]) -> (WebSocket<TcpStream>, BTreeMap<u32
     (ws, subs)
 }
 
-/// Reads until the server closes: (topic, stamp, payload) of every `messageData`.
-fn receive_all(
-    ws: &mut WebSocket<TcpStream>,
-    subs: &BTreeMap<u32, String>,
-) -> Vec<(String, u64, Vec<u8>)> {
-    let mut got = Vec::new();
+/// Every `messageData` a client received as (topic, stamp, payload), in order.
+type Received = Vec<(String, u64, Vec<u8>)>;
+/// Every `time` frame a client received as (messages received before it, clock in ns), in order.
+type Clock = Vec<(usize, u64)>;
+
+/// Reads until the server closes.
+fn receive_all(ws: &mut WebSocket<TcpStream>, subs: &BTreeMap<u32, String>) -> (Received, Clock) {
+    let (mut got, mut clock) = (Vec::new(), Vec::new());
     loop {
         match ws.read() {
+            Ok(Message::Binary(b)) if b[0] == 0x02 => {
+                assert_eq!(b.len(), 9);
+                clock.push((got.len(), u64::from_le_bytes(b[1..9].try_into().unwrap())));
+            }
             Ok(Message::Binary(b)) => {
                 assert_eq!(b[0], 0x01);
                 let sub = u32::from_le_bytes(b[1..5].try_into().unwrap());
@@ -126,14 +132,16 @@ fn receive_all(
                 got.push((subs[&sub].clone(), t, b[13..].to_vec()));
             }
             Ok(_) => {}
-            Err(_) => return got,
+            Err(_) => return (got, clock),
         }
     }
 }
 
 /// A live run with a client: every message it receives is byte for byte the logged message of
 /// the same topic and stamp (one recorder, two sinks), the scene sent before it subscribed
-/// included; the result is the one without `--live`.
+/// included; the result is the one without `--live`. The server's clock (the `time` capability)
+/// is the simulated time: it only goes forward, reaches each stamp before a message of that stamp
+/// arrives, and ends at the last stamp.
 #[test]
 fn live_run_sends_the_logged_messages_and_keeps_its_result() {
     let dir = tempfile::tempdir().unwrap();
@@ -145,10 +153,20 @@ fn live_run_sends_the_logged_messages_and_keeps_its_result() {
     let (child, addr, rest) = spawn_live(cmd);
     let topics = ["/tf", "/camera/depth", "/map/grid", "/metrics", "/scene"];
     let (mut ws, subs) = subscribe(&addr, &topics);
-    let got = receive_all(&mut ws, &subs);
+    let (got, clock) = receive_all(&mut ws, &subs);
     let (out, err) = finish(child, rest);
     assert!(out.status.success(), "{err}");
     assert_eq!(result(&out.stdout), result(&plain.stdout));
+    assert!(clock.windows(2).all(|w| w[0].1 < w[1].1), "{clock:?}");
+    for (i, (topic, stamp, _)) in got.iter().enumerate() {
+        let now = clock.iter().take_while(|c| c.0 <= i).last().map(|c| c.1);
+        assert!(
+            now >= Some(*stamp),
+            "{topic} at {stamp} ns before the clock: {now:?}"
+        );
+    }
+    let last = got.iter().map(|g| g.1).max();
+    assert_eq!(clock.last().map(|c| c.1), last);
     assert!(err.contains("live: 1 client served"), "{err}");
 
     let logged = tensorscout::log::read_log(&log).unwrap();
@@ -229,7 +247,7 @@ fn replay_live_plays_the_log() {
         .args(["--live", "127.0.0.1:0", "--rate", "max"]);
     let (child, addr, rest) = spawn_live(cmd);
     let (mut ws, subs) = subscribe(&addr, &["/metrics"]);
-    let got = receive_all(&mut ws, &subs);
+    let (got, _) = receive_all(&mut ws, &subs);
     let (out, err) = finish(child, rest);
     assert!(out.status.success(), "{err}");
     let logged = tensorscout::log::read_log(&log).unwrap();

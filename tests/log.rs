@@ -508,9 +508,10 @@ fn rerender_depth(log: &Path, lag_steps: u64) -> Agreement {
         });
         let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
         let bytes = tensorscout::util::base64_decode(v["data"].as_str().unwrap()).unwrap();
+        assert_eq!(v["encoding"], "16UC1");
         let logged: Vec<f32> = bytes
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .chunks_exact(2)
+            .map(|c| f32::from(u16::from_le_bytes([c[0], c[1]])) / 1000.0)
             .collect();
         match cfg.camera.renderer {
             DepthRenderer::Raster => camera.render_into(&raster, pose, &mut frame),

@@ -7,7 +7,11 @@
 //! feature the SDK adds about 50 crates to the build (tokio, prost, tracing, futures, flume,
 //! parking_lot, serde_with, ...), `tungstenite` with its handshake about 13 (http, httparse, sha1,
 //! bytes, ...), and the part of the protocol a simulator needs is small: `serverInfo`, `advertise`,
-//! the client's `subscribe`/`unsubscribe`, binary `messageData`, and `status`.
+//! the client's `subscribe`/`unsubscribe`, binary `messageData` and `time`, and `status`.
+//!
+//! The server has the protocol's `time` capability: it publishes the simulated clock (the stamp of
+//! each step's messages), so a client's clock, and the receive time of every message, is the time
+//! the messages are stamped with rather than the wall clock.
 //!
 //! The simulation never waits for a client: [`LiveServer::publish`] hands each message to a bounded
 //! queue per subscribed client and drops it for that client when the queue is full (a slow reader)
@@ -42,6 +46,8 @@ const GRACE: Duration = Duration::from_secs(2);
 const HANDSHAKE: Duration = Duration::from_secs(5);
 /// Opcode of a binary `messageData` frame.
 const MESSAGE_DATA: u8 = 0x01;
+/// Opcode of a binary `time` frame (the server's clock, with the `time` capability).
+const TIME: u8 = 0x02;
 
 /// What the server delivered, for the report at the end of a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -69,6 +75,9 @@ enum Out {
         payload: Arc<[u8]>,
     },
     Text(String),
+    /// The simulated clock, nanoseconds: not a message of a channel, so neither sent nor dropped
+    /// messages count it.
+    Time(u64),
 }
 
 struct Client {
@@ -82,13 +91,19 @@ struct Client {
 impl Client {
     /// Queues `out`, or counts it dropped; `false` when the client's thread has ended.
     fn offer(&self, out: Out) -> bool {
+        let counted = !matches!(out, Out::Time(_));
         match self.tx.try_send(out) {
             Ok(()) => {
-                self.counters.queued.fetch_add(1, Ordering::Relaxed);
+                if counted {
+                    self.counters.queued.fetch_add(1, Ordering::Relaxed);
+                }
                 true
             }
             Err(TrySendError::Full(_)) => {
-                self.counters.dropped.fetch_add(1, Ordering::Relaxed);
+                // A dropped clock update is superseded by the next one.
+                if counted {
+                    self.counters.dropped.fetch_add(1, Ordering::Relaxed);
+                }
                 true
             }
             Err(TrySendError::Disconnected(_)) => false,
@@ -101,6 +116,8 @@ struct State {
     clients: Vec<Client>,
     /// The latest message of each channel, for clients that subscribe later.
     latest: Vec<Option<(u64, Arc<[u8]>)>>,
+    /// The clock published last (the latest stamp), for clients that connect later.
+    clock_ns: Option<u64>,
     /// Counters of every client served, gone or not.
     served: Vec<Arc<Counters>>,
     threads: Vec<JoinHandle<()>>,
@@ -205,6 +222,10 @@ impl LiveServer {
         };
         let payload: Arc<[u8]> = Arc::from(payload);
         let mut state = self.shared.state();
+        if state.clock_ns.is_none_or(|c| time_ns > c) {
+            state.clock_ns = Some(time_ns);
+            state.clients.retain(|c| c.offer(Out::Time(time_ns)));
+        }
         state.latest[ch] = Some((time_ns, Arc::clone(&payload)));
         state.clients.retain(|c| {
             c.subscriptions
@@ -308,7 +329,7 @@ fn accept_loop(listener: TcpListener, shared: Arc<Shared>) {
 fn greeting(session: &str) -> [String; 2] {
     let info = json!({
         "op": "serverInfo", "name": format!("tensorscout {}", crate::VERSION),
-        "capabilities": [], "supportedEncodings": [], "metadata": {}, "sessionId": session
+        "capabilities": ["time"], "supportedEncodings": [], "metadata": {}, "sessionId": session
     });
     let channels: Vec<Value> = TOPICS
         .iter()
@@ -435,12 +456,16 @@ fn serve(stream: TcpStream, shared: &Shared, id: u64) {
             return;
         }
         state.served.push(Arc::clone(&counters));
-        state.clients.push(Client {
+        let client = Client {
             id,
             subscriptions: Vec::new(),
             tx,
             counters: Arc::clone(&counters),
-        });
+        };
+        if let Some(clock) = state.clock_ns {
+            client.offer(Out::Time(clock));
+        }
+        state.clients.push(client);
     }
     pump(&mut ws, &rx, shared, id, &counters);
     shared.state().clients.retain(|c| c.id != id);
@@ -501,6 +526,8 @@ fn pump(
         let mut next = Some(first);
         let mut batch = 0;
         while let Some(out) = next {
+            // Only channel messages count as sent or dropped.
+            let data = matches!(out, Out::Data { .. });
             let msg = match out {
                 Out::Data {
                     subscription,
@@ -519,8 +546,13 @@ fn pump(
                     counters.queued.fetch_sub(1, Ordering::Relaxed);
                     Message::text(t)
                 }
+                Out::Time(ns) => {
+                    let mut frame = Vec::with_capacity(9);
+                    frame.push(TIME);
+                    frame.extend_from_slice(&ns.to_le_bytes());
+                    Message::binary(frame)
+                }
             };
-            let data = msg.is_binary();
             match ws.write(msg) {
                 Ok(()) => {}
                 // Kept in the write buffer, to go out once the socket drains.

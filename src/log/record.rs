@@ -264,18 +264,28 @@ pub fn trajectory_message(time_s: f64, trajectory: &Trajectory) -> Value {
     update(e)
 }
 
-/// `/camera/depth`: 32FC1 depth along the optical axis, metres (0 = no return).
+/// `/camera/depth`: 16UC1 depth along the optical axis in millimetres (0 = no return), the depth
+/// convention of ROS REP 118. `foxglove.RawImage` defines `32FC1` as brightness from 0 (black) to
+/// 1 (white), so depth in metres there shows as a white image, whereas a 16-bit image is drawn
+/// with the image panel's colour map and value range (the shipped layout's 0–5 m).
 pub fn depth_message(time_s: f64, frame: &crate::sensor::DepthFrame) -> Value {
     let bytes: Vec<u8> = frame
         .depth_image()
         .iter()
-        .flat_map(|d| d.to_le_bytes())
+        .flat_map(|&d| depth_mm(d).to_le_bytes())
         .collect();
     json!({
         "timestamp": stamp(time_s), "frame_id": "camera",
-        "width": frame.width, "height": frame.height, "encoding": "32FC1",
-        "step": frame.width * 4, "data": crate::util::base64_encode(&bytes)
+        "width": frame.width, "height": frame.height, "encoding": "16UC1",
+        "step": frame.width * 2, "data": crate::util::base64_encode(&bytes)
     })
+}
+
+/// A depth in metres as a 16UC1 pixel: the nearest millimetre (0 stays 0, no return). Depth beyond
+/// 65.535 m, possible only with `camera.max_range_m` above it, saturates at 65535: a 16-bit pixel
+/// has no room for it, and an indoor camera sees no farther.
+pub fn depth_mm(depth_m: f32) -> u16 {
+    (depth_m * 1000.0).round().clamp(0.0, f32::from(u16::MAX)) as u16
 }
 
 /// Cell codes of the `state` layer of `/map/grid`.
@@ -630,6 +640,37 @@ mod tests {
         let down = q * nalgebra::Vector3::y();
         assert!((fwd - nalgebra::Vector3::x()).norm() < 1e-12);
         assert!((down + nalgebra::Vector3::z()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn depth_is_16uc1_millimetres() {
+        assert_eq!(depth_mm(0.0), 0);
+        assert_eq!(depth_mm(1.2344), 1234);
+        assert_eq!(depth_mm(1.2346), 1235);
+        assert_eq!(depth_mm(5.0), 5000);
+        assert_eq!(depth_mm(99.0), u16::MAX);
+        // A real frame: a camera 2 m in front of a wall that fills its view sees it at 2000 mm.
+        let cfg = crate::Config::default().camera;
+        let mut wall = crate::scene::TriMesh::default();
+        crate::sensor::raycast::testing::push_box(
+            &mut wall,
+            [2.0, -50.0, -50.0],
+            [2.1, 50.0, 50.0],
+        );
+        let bvh = crate::sensor::MeshBvh::new(&wall).unwrap();
+        let frame = crate::sensor::DepthCamera::new(&cfg).capture(&bvh, Pose2::new(0.0, 0.0, 0.0));
+        let v = depth_message(0.0, &frame);
+        assert_eq!(v["encoding"], "16UC1");
+        assert_eq!(v["step"], cfg.width * 2);
+        let data = crate::util::base64_decode(v["data"].as_str().unwrap()).unwrap();
+        assert_eq!(data.len(), cfg.width * cfg.height * 2);
+        let px: Vec<u16> = data
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        let depth = frame.depth_image();
+        assert!(px.iter().zip(&depth).all(|(&p, &d)| p == depth_mm(d)));
+        assert!(px.iter().all(|&p| p.abs_diff(2000) <= 1), "{:?}", &px[..8]);
     }
 
     #[test]

@@ -2,7 +2,8 @@
 
 Usage: check_live.py ws://HOST:PORT TOPIC [TOPIC ...]
 Connects with the PyPI `websockets` client offering the subprotocol, reads `serverInfo` and
-`advertise`, subscribes to TOPIC..., and reads binary `messageData` until the server closes. Every
+`advertise` (which must offer the `time` capability), subscribes to TOPIC..., and reads binary
+`messageData` and `time` frames (the clock must go forward) until the server closes. Every
 message received is decoded as JSON and validated with `jsonschema` against the schema its channel
 advertised. Prints a JSON object {topic: {"messages": n, "first_ns": t, "last_ns": t}} and exits 1
 if a topic was not advertised, a message does not validate, or a subscribed topic got no message.
@@ -26,6 +27,7 @@ async def run(url: str, topics: list[str]) -> int:
         assert ws.subprotocol == SUBPROTOCOL, ws.subprotocol
         info = json.loads(await ws.recv())
         assert info["op"] == "serverInfo", info
+        assert "time" in info["capabilities"], info
         advertise = json.loads(await ws.recv())
         assert advertise["op"] == "advertise", advertise
         channels = {c["topic"]: c for c in advertise["channels"]}
@@ -45,11 +47,17 @@ async def run(url: str, topics: list[str]) -> int:
             subscriptions.append({"id": sub_id, "channelId": c["id"]})
         await ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
         seen = {}
+        clock = -1
         try:
             async for frame in ws:
                 if isinstance(frame, str):
                     msg = json.loads(frame)
                     assert msg["op"] in ("status", "advertise", "unadvertise"), msg
+                    continue
+                if frame[0] == 0x02:  # time: the server's (simulated) clock
+                    (now,) = struct.unpack_from("<Q", frame, 1)
+                    assert now > clock, (now, clock)
+                    clock = now
                     continue
                 opcode, sub_id, stamp = struct.unpack_from("<BIQ", frame)
                 assert opcode == 0x01, opcode

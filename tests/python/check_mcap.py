@@ -43,7 +43,8 @@ def main() -> int:
             msg = json.loads(message.data)
             if channel.topic == "/camera/depth":
                 data = base64.b64decode(msg["data"])
-                assert len(data) == msg["width"] * msg["height"] * 4
+                assert msg["encoding"] == "16UC1", msg["encoding"]
+                assert len(data) == msg["width"] * msg["height"] * 2
             if channel.topic == "/map/grid":
                 data = base64.b64decode(msg["data"])
                 assert len(data) % msg["row_stride"] == 0
