@@ -491,9 +491,9 @@ mod tests {
             }
         }
         let mut best = f64::INFINITY;
-        for first in 0..m.n() {
+        for (first, &to_first) in from_start.iter().enumerate() {
             let mut left: Vec<usize> = (0..m.n()).filter(|&j| j != first).collect();
-            go(m, first, &mut left, from_start[first], &mut best);
+            go(m, first, &mut left, to_first, &mut best);
         }
         best
     }
