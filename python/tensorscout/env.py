@@ -50,10 +50,15 @@ def register() -> None:
 def _spaces(d: Dict[str, Any], action_type: str) -> Tuple[spaces.Dict, spaces.Space[Any]]:
     h, w = d["depth_shape"]
     s = d["crop_cells"]
+    x0, y0, x1, y1 = d["bounds"]
     obs = spaces.Dict(
         {
             "depth": spaces.Box(0.0, float(d["max_range_m"]), (h, w, 1), np.float32),
-            "pose": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "pose": spaces.Box(
+                np.array([x0, y0, -np.pi], np.float32),
+                np.array([x1, y1, np.pi], np.float32),
+                dtype=np.float32,
+            ),
             "map": spaces.Box(0, 1, (s, s, 4), np.uint8),
         }
     )
@@ -66,7 +71,6 @@ def _spaces(d: Dict[str, Any], action_type: str) -> Tuple[spaces.Dict, spaces.Sp
             np.array([0.0, -wmax], np.float32), np.array([vmax, wmax], np.float32), dtype=np.float32
         )
     else:
-        x0, y0, x1, y1 = d["bounds"]
         act = spaces.Box(
             np.array([x0, y0], np.float32), np.array([x1, y1], np.float32), dtype=np.float32
         )
