@@ -163,11 +163,14 @@ def test_make_vec_uses_the_native_vector_env() -> None:
 
 
 def test_vector_env_resets_finished_envs_at_the_next_step() -> None:
-    vec = tensorscout.ExploreVectorEnv(2, SMALL, action_type="goal", config={"sim.budget_s": 1},
-                                       num_threads=1)
+    # A budget of 3 steps: reset takes one, a forward move two more.
+    vec = tensorscout.ExploreVectorEnv(2, SMALL, config={"sim.budget_s": 0.3}, num_threads=1)
     vec.reset(seed=0)
-    obs, r, term, trunc, info = vec.step(np.array([[3.0, 3.0], [3.0, 3.0]], np.float32))
-    assert trunc.all()
-    obs, r, term, trunc, info = vec.step(np.array([[3.0, 3.0], [3.0, 3.0]], np.float32))
+    obs, r, term, trunc, info = vec.step(np.array([0, 0]))
+    assert trunc.all() and info["time_s"] == pytest.approx([0.3, 0.3])
+    obs, r, term, trunc, info = vec.step(np.array([0, 0]))
     assert not (term.any() or trunc.any()) and (r == 0).all()
-    assert not info["_completeness"].any()
+    assert not info.get("_completeness", np.zeros(2, bool)).any()
+    obs, r, term, trunc, info = vec.step(np.array([1, 1]))
+    # A new episode: its reset step and the two steps of a 10° turn.
+    assert info["time_s"] == pytest.approx([0.3, 0.3]) and trunc.all()
