@@ -27,7 +27,7 @@ flat = [
     for r in rows
 ]
 try:
-    import pandas as pd
+    import pandas as pd  # type: ignore[import-untyped, unused-ignore]
 except ImportError:
     print("pandas is not installed (pip install pandas); the rows:")
     for f in flat:

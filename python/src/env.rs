@@ -224,6 +224,16 @@ impl EnvCore {
         }
     }
 
+    /// One step per command, until the commands or the episode end.
+    fn command(&mut self, cmds: &[Command]) {
+        let sim = self.ep().sim_mut();
+        for &cmd in cmds {
+            if sim.step_commanded(cmd, &mut NoObserver) != StepOutcome::Running {
+                return;
+            }
+        }
+    }
+
     /// Runs one agent action.
     fn step(&mut self, action: AgentAction) -> tensorscout::Result<StepOut> {
         if self.ep.is_none() || self.ended {
@@ -250,20 +260,17 @@ impl EnvCore {
                     }
                 };
                 // Whole steps at full rate, the last one at the rate that makes the total exact.
+                let mut cmds = Vec::new();
                 let mut left = total;
                 while left > 1e-12 {
                     let r = rate.min(left / dt);
-                    let cmd = Command {
+                    cmds.push(Command {
                         v: v_sign * r,
                         w: w_sign * r,
-                    };
+                    });
                     left -= r * dt;
-                    if self.ep().sim_mut().step_commanded(cmd, &mut NoObserver)
-                        != StepOutcome::Running
-                    {
-                        break;
-                    }
                 }
+                self.command(&cmds);
             }
             (ActionType::Velocity, AgentAction::Pair(v, w)) => {
                 if !(v.is_finite() && w.is_finite()) {
@@ -271,16 +278,7 @@ impl EnvCore {
                         "velocity action: v and w must be finite",
                     ));
                 }
-                for _ in 0..p.velocity_steps {
-                    if self
-                        .ep()
-                        .sim_mut()
-                        .step_commanded(Command { v, w }, &mut NoObserver)
-                        != StepOutcome::Running
-                    {
-                        break;
-                    }
-                }
+                self.command(&vec![Command { v, w }; p.velocity_steps as usize]);
             }
             (ActionType::Goal, AgentAction::Pair(x, y)) => {
                 if !(x.is_finite() && y.is_finite()) {

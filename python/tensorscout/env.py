@@ -105,7 +105,8 @@ class ExploreEnv(gym.Env[Dict[str, np.ndarray], Any]):
             collision_penalty,
         )
         self.settings: Dict[str, Any] = dict(self._core.describe())
-        self.observation_space, self.action_space = _spaces(self.settings, action_type)
+        obs_space, self.action_space = _spaces(self.settings, action_type)
+        self.observation_space = obs_space  # type: ignore[assignment]
         self.action_type = action_type
 
     def reset(
@@ -188,8 +189,9 @@ class ExploreVectorEnv(VectorEnv[Dict[str, np.ndarray], np.ndarray, np.ndarray])
         seed: Union[None, int, Sequence[Optional[int]]] = None,
         options: Optional[Dict[str, Any]] = None,
     ) -> Tuple[Dict[str, np.ndarray], Dict[str, Any]]:
-        super().reset(seed=seed)
-        obs, infos = self._core.reset(_seeds(seed, self.num_envs), None)
+        seeds = _seeds(seed, self.num_envs)
+        super().reset(seed=seeds[0])
+        obs, infos = self._core.reset(seeds, None)
         self._autoreset[:] = False
         return obs, self._infos(infos)
 

@@ -497,21 +497,10 @@ impl<'a> Simulation<'a> {
         }
         // Motion.
         let (cmd, status) = self.motion.step(self.robot.pose, &self.map);
-        self.robot.apply(cmd, self.dt);
-        if self.robot.pose.x.is_nan() || self.robot.pose.y.is_nan() {
-            self.clock.end();
-            return self.fail(crate::Error::Runtime("robot pose became NaN".into()));
+        if let Err(failed) = self.apply_command(cmd) {
+            return failed;
         }
         let pose = self.robot.pose;
-        if self.bvh.cylinder_intersects(
-            pose.x,
-            pose.y,
-            cfg.robot.radius_m,
-            cfg.map.band_min_m,
-            self.collision_top,
-        ) {
-            self.collisions += 1;
-        }
         match status {
             MotionStatus::Busy => {}
             MotionStatus::Done | MotionStatus::Blocked => {
@@ -541,30 +530,42 @@ impl<'a> Simulation<'a> {
         fired: bool,
         observer: &mut dyn Observer,
     ) -> StepOutcome {
-        let cfg = self.cfg;
         self.clock.lap(Stage::Field);
         self.clock.lap(Stage::Plan);
         let before = self.robot.clone();
-        self.robot.apply(cmd, self.dt);
-        if !(self.robot.pose.x.is_finite() && self.robot.pose.y.is_finite()) {
-            self.clock.end();
-            return self.fail(crate::Error::Runtime("robot pose became NaN".into()));
-        }
-        let pose = self.robot.pose;
-        if self.bvh.cylinder_intersects(
-            pose.x,
-            pose.y,
-            cfg.robot.radius_m,
-            cfg.map.band_min_m,
-            self.collision_top,
-        ) {
-            self.collisions += 1;
-            self.robot = before;
+        match self.apply_command(cmd) {
+            Err(failed) => return failed,
+            // The move into the scene is not made.
+            Ok(true) => self.robot = before,
+            Ok(false) => {}
         }
         let pose = self.robot.pose;
         self.clock.lap(Stage::Motion);
         self.clock.end();
         self.end_step(time_s, pose, sensed_pose, fired, observer)
+    }
+
+    /// Moves the robot by `cmd` for one `dt` and counts a collision if its body then touches the
+    /// scene (answering whether it does); `Err` with the step's outcome when the pose became NaN,
+    /// which fails the run.
+    fn apply_command(&mut self, cmd: Command) -> std::result::Result<bool, StepOutcome> {
+        self.robot.apply(cmd, self.dt);
+        if self.robot.pose.x.is_nan() || self.robot.pose.y.is_nan() {
+            self.clock.end();
+            return Err(self.fail(crate::Error::Runtime("robot pose became NaN".into())));
+        }
+        let (pose, cfg) = (self.robot.pose, self.cfg);
+        let hit = self.bvh.cylinder_intersects(
+            pose.x,
+            pose.y,
+            cfg.robot.radius_m,
+            cfg.map.band_min_m,
+            self.collision_top,
+        );
+        if hit {
+            self.collisions += 1;
+        }
+        Ok(hit)
     }
 
     /// The end of every step: the trajectory, the metrics, the observer and the run's end.
