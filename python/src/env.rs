@@ -12,7 +12,7 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use tensorscout::grid::CellState;
 use tensorscout::map::Map;
@@ -405,7 +405,7 @@ fn obs_dict<'py>(
 #[allow(clippy::too_many_arguments)]
 fn build_core(
     py: Python<'_>,
-    scene: &PathBuf,
+    scene: &Path,
     action_type: &str,
     config: Option<&Bound<'_, PyAny>>,
     spawn: Option<&Bound<'_, PyAny>>,

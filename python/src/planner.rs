@@ -168,7 +168,7 @@ impl Planner for PyPlanner {
             ctx.time_s,
             Some(search),
             "plan",
-            |a| action_from_py(a),
+            action_from_py,
         );
         r.map(Plan::from)
             .map_err(|e| Python::attach(|py| self.failure(py, e, "plan")))
