@@ -472,8 +472,9 @@ impl PlannerKind {
         }
     }
 
-    /// A fresh planner of this kind.
-    pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner>> {
+    /// A fresh planner of this kind. Every built-in planner is `Send`, so that a simulation can move
+    /// to another thread (the Python bindings' vector environment steps simulations on a pool).
+    pub fn build(self, cfg: &Config) -> Result<Box<dyn Planner + Send>> {
         match self {
             PlannerKind::Greedy => Ok(Box::new(greedy::Greedy::new(
                 &cfg.greedy,

@@ -3,7 +3,7 @@
 use super::clock::{Stage, StageClock};
 use super::motion::{MotionExecutor, MotionParams, MotionStatus};
 use super::result::{CurveSample, RunResult, Termination};
-use super::robot::Robot;
+use super::robot::{Command, Robot};
 use crate::config::{Config, DepthRenderer, SpawnMode};
 use crate::eval::{
     frontiers_left, surface_coverage, unseen_patches, CacheOutcome, ExploredVolume, GroundTruth,
@@ -347,6 +347,52 @@ impl<'a> Simulation<'a> {
         self.step as f64 / self.steps_per_s
     }
 
+    /// The robot's pose now.
+    pub fn pose(&self) -> Pose2 {
+        self.robot.pose
+    }
+
+    /// The map built so far.
+    pub fn map(&self) -> &Map {
+        &self.map
+    }
+
+    /// The last depth frame the camera took (empty before the first step).
+    pub fn frame(&self) -> &DepthFrame {
+        &self.frame
+    }
+
+    /// The scene's ground truth (reachable region, spawn) the run is measured against.
+    pub fn ground_truth(&self) -> &GroundTruth {
+        &self.gt
+    }
+
+    /// Explored band volume so far, m³ (the result's `explored_volume_m3`).
+    pub fn explored_volume_m3(&self) -> f64 {
+        self.explored.volume_m3()
+    }
+
+    /// Completeness so far: the explored share of the observable volume.
+    pub fn completeness(&self) -> f64 {
+        self.explored.completeness()
+    }
+
+    /// Distance driven so far, metres.
+    pub fn path_length_m(&self) -> f64 {
+        self.robot.path_length_m
+    }
+
+    /// Collisions so far.
+    pub fn collisions(&self) -> u64 {
+        self.collisions
+    }
+
+    /// What the planner reads of the config, for searches under the shared cost rule from outside
+    /// the planner (the Python bindings' planning context).
+    pub fn plan_params(&self) -> &PlanParams {
+        &self.plan_params
+    }
+
     /// How the run ended, if it has.
     pub fn ended(&self) -> Option<Termination> {
         self.ended
@@ -373,6 +419,20 @@ impl<'a> Simulation<'a> {
     /// again. The budget ends the run at the step that spends it; `observer` may stop it before a
     /// step ([`Observer::stop_requested`]).
     pub fn step(&mut self, observer: &mut dyn Observer) -> StepOutcome {
+        self.advance(None, observer)
+    }
+
+    /// One step of `dt` driven by `command` from outside (an agent in a learning environment)
+    /// instead of the planner and the motion executor: sense, map and metrics as in
+    /// [`Simulation::step`], no field or plan stage, and the command (clamped to the robot's limits)
+    /// in place of the executor's. A move that would make the robot's body touch the scene is not
+    /// made (the robot stays where it was) and counts as a collision.
+    pub fn step_commanded(&mut self, command: Command, observer: &mut dyn Observer) -> StepOutcome {
+        self.advance(Some(command), observer)
+    }
+
+    /// [`Simulation::step`], or with `command` [`Simulation::step_commanded`].
+    fn advance(&mut self, command: Option<Command>, observer: &mut dyn Observer) -> StepOutcome {
         if let Some(t) = self.ended {
             return StepOutcome::Ended(t);
         }
@@ -410,6 +470,9 @@ impl<'a> Simulation<'a> {
         self.map
             .clear_footprint(self.robot.pose.x, self.robot.pose.y, cfg.robot.radius_m);
         self.clock.lap(Stage::Map);
+        if let Some(cmd) = command {
+            return self.commanded_motion(cmd, time_s, sensed_pose, fired, observer);
+        }
         // Field: the tensor-field planners update theirs here; GREEDY and NBV-TSP have none.
         if let Some(fp) = self.planner.field_planner() {
             if let Err(e) = fp.update_field(&self.map, self.robot.pose, time_s) {
@@ -434,21 +497,10 @@ impl<'a> Simulation<'a> {
         }
         // Motion.
         let (cmd, status) = self.motion.step(self.robot.pose, &self.map);
-        self.robot.apply(cmd, self.dt);
-        if self.robot.pose.x.is_nan() || self.robot.pose.y.is_nan() {
-            self.clock.end();
-            return self.fail(crate::Error::Runtime("robot pose became NaN".into()));
+        if let Err(failed) = self.apply_command(cmd) {
+            return failed;
         }
         let pose = self.robot.pose;
-        if self.bvh.cylinder_intersects(
-            pose.x,
-            pose.y,
-            cfg.robot.radius_m,
-            cfg.map.band_min_m,
-            self.collision_top,
-        ) {
-            self.collisions += 1;
-        }
         match status {
             MotionStatus::Busy => {}
             MotionStatus::Done | MotionStatus::Blocked => {
@@ -466,6 +518,66 @@ impl<'a> Simulation<'a> {
         }
         self.clock.lap(Stage::Motion);
         self.clock.end();
+        self.end_step(time_s, pose, sensed_pose, fired, observer)
+    }
+
+    /// The motion stage of [`Simulation::step_commanded`]: the field and plan stages count zero.
+    fn commanded_motion(
+        &mut self,
+        cmd: Command,
+        time_s: f64,
+        sensed_pose: Pose2,
+        fired: bool,
+        observer: &mut dyn Observer,
+    ) -> StepOutcome {
+        self.clock.lap(Stage::Field);
+        self.clock.lap(Stage::Plan);
+        let before = self.robot.clone();
+        match self.apply_command(cmd) {
+            Err(failed) => return failed,
+            // The move into the scene is not made.
+            Ok(true) => self.robot = before,
+            Ok(false) => {}
+        }
+        let pose = self.robot.pose;
+        self.clock.lap(Stage::Motion);
+        self.clock.end();
+        self.end_step(time_s, pose, sensed_pose, fired, observer)
+    }
+
+    /// Moves the robot by `cmd` for one `dt` and counts a collision if its body then touches the
+    /// scene (answering whether it does); `Err` with the step's outcome when the pose became NaN,
+    /// which fails the run.
+    fn apply_command(&mut self, cmd: Command) -> std::result::Result<bool, StepOutcome> {
+        self.robot.apply(cmd, self.dt);
+        if self.robot.pose.x.is_nan() || self.robot.pose.y.is_nan() {
+            self.clock.end();
+            return Err(self.fail(crate::Error::Runtime("robot pose became NaN".into())));
+        }
+        let (pose, cfg) = (self.robot.pose, self.cfg);
+        let hit = self.bvh.cylinder_intersects(
+            pose.x,
+            pose.y,
+            cfg.robot.radius_m,
+            cfg.map.band_min_m,
+            self.collision_top,
+        );
+        if hit {
+            self.collisions += 1;
+        }
+        Ok(hit)
+    }
+
+    /// The end of every step: the trajectory, the metrics, the observer and the run's end.
+    fn end_step(
+        &mut self,
+        time_s: f64,
+        pose: Pose2,
+        sensed_pose: Pose2,
+        fired: bool,
+        observer: &mut dyn Observer,
+    ) -> StepOutcome {
+        let cfg = self.cfg;
         self.trajectory.push(pose);
         self.step += 1;
 
