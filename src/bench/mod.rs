@@ -245,20 +245,21 @@ pub struct BatchReport {
 
 /// Computes (or reads from the cache) each scene's observable set once before the runs, so that
 /// parallel runs of one scene do not all compute it. A scene that fails to load is left to its runs,
-/// which report the error in their rows.
+/// which report the error in their rows; so is one whose preparation panics (each run then fails on
+/// its own, as a `failed` row, instead of the panic ending the batch).
 fn prepare_scenes(runs: &[RunSpec], cfg: &Config, cache: &ObservableCache) -> Vec<String> {
     let scenes: BTreeSet<&PathBuf> = runs.iter().map(|r| &r.scene_path).collect();
     let mut notes = Vec::new();
     for path in scenes {
-        let Ok(scene) = scene::load(path, &cfg.scene) else {
-            continue;
-        };
-        let mut cfg = cfg.clone();
-        // The set belongs to the scene's own spawn region, which random starts share.
-        cfg.sim.spawn = SpawnMode::Scene;
-        if let Ok(world) = World::with_cache(&scene, &cfg, None, cache) {
-            notes.extend(world.observable_source.warning());
-        }
+        let prepared = catch_unwind(AssertUnwindSafe(|| {
+            let scene = scene::load(path, &cfg.scene).ok()?;
+            let mut cfg = cfg.clone();
+            // The set belongs to the scene's own spawn region, which random starts share.
+            cfg.sim.spawn = SpawnMode::Scene;
+            let world = World::with_cache(&scene, &cfg, None, cache).ok()?;
+            world.observable_source.warning()
+        }));
+        notes.extend(prepared.ok().flatten());
     }
     notes
 }

@@ -31,8 +31,8 @@ pub struct ExploreArgs {
     config: ConfigArgs,
     #[command(flatten)]
     profile: ProfileArg,
-    /// Seed of the run's random stream (overrides the config's `seed`).
-    #[arg(long)]
+    /// Seed of the run's random stream (overrides the config's `seed`; 0 to 2^63 - 1).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(..=i64::MAX as u64))]
     seed: Option<u64>,
     /// Start pose `X,Y[,YAW]` in metres and radians, or `random`: a pose drawn from the seed over
     /// the reachable region, the same for every planner (default: the scene's own, else automatic).

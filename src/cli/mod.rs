@@ -113,7 +113,7 @@ impl ConfigArgs {
     }
 }
 
-/// SIGINT and SIGTERM: exit 130 and 143 everywhere. By default a signal ends the process at once
+/// SIGHUP, SIGINT and SIGTERM: exit 129, 130 and 143 everywhere. By default a signal ends the process at once
 /// (a bench's finished rows are already flushed; nothing else is half-written). Inside a
 /// [`signals::Cooperative`] section (an `explore` run) the first signal only asks the run to stop,
 /// so that its result is printed and its log finished; a second signal ends the process at once.
@@ -124,7 +124,9 @@ pub mod signals {
     static STOP: AtomicBool = AtomicBool::new(false);
     static RECEIVED: AtomicUsize = AtomicUsize::new(0);
 
-    const SIGNALS: [(i32, i32); 2] = [
+    /// SIGHUP (the terminal closed) ends a run as SIGTERM does: its result and log are kept.
+    const SIGNALS: [(i32, i32); 3] = [
+        (signal_hook::consts::SIGHUP, 129),
         (signal_hook::consts::SIGINT, 130),
         (signal_hook::consts::SIGTERM, 143),
     ];
@@ -146,7 +148,7 @@ pub mod signals {
         STOP.load(Ordering::SeqCst)
     }
 
-    /// 130 after SIGINT, 143 after SIGTERM, `None` when no signal arrived.
+    /// 129 after SIGHUP, 130 after SIGINT, 143 after SIGTERM, `None` when no signal arrived.
     pub fn exit_code() -> Option<u8> {
         let sig = RECEIVED.load(Ordering::SeqCst) as i32;
         SIGNALS
