@@ -253,13 +253,23 @@ fn prepare_scenes(runs: &[RunSpec], cfg: &Config, cache: &ObservableCache) -> Ve
     for path in scenes {
         let prepared = catch_unwind(AssertUnwindSafe(|| {
             let scene = scene::load(path, &cfg.scene).ok()?;
-            let mut cfg = cfg.clone();
-            // The set belongs to the scene's own spawn region, which random starts share.
-            cfg.sim.spawn = SpawnMode::Scene;
-            let world = World::with_cache(&scene, &cfg, None, cache).ok()?;
-            world.observable_source.warning()
+            let mut own = cfg.clone();
+            // The set belongs to the scene's own spawn region, which random starts share; when
+            // the file's spawn line is refused, random starts use the largest room's (said once).
+            own.sim.spawn = SpawnMode::Scene;
+            let world = World::with_cache(&scene, &own, None, cache)
+                .or_else(|_| World::with_cache(&scene, cfg, None, cache))
+                .ok()?;
+            Some(
+                world
+                    .observable_source
+                    .warning()
+                    .into_iter()
+                    .chain(world.spawn_warning)
+                    .collect::<Vec<_>>(),
+            )
         }));
-        notes.extend(prepared.ok().flatten());
+        notes.extend(prepared.ok().flatten().into_iter().flatten());
     }
     notes
 }
@@ -331,6 +341,13 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
     let total = plan_runs(spec).len();
+    let jsonl = spec.out.join(store::RESULTS_JSONL);
+    // A cut last row is dropped by the resume (and its run done again): said, not silent.
+    let cut_row = if spec.resume && jsonl.is_file() {
+        store::cut_row_warning(&jsonl)?
+    } else {
+        None
+    };
     let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
     progress.start(total, skipped);
@@ -341,7 +358,8 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         .num_threads(spec.jobs.max(1))
         .build()
         .map_err(|e| Error::Runtime(format!("cannot start the thread pool: {e}")))?;
-    let notes = pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache));
+    let mut notes: Vec<String> = cut_row.into_iter().collect();
+    notes.extend(pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache)));
     // One pool: the runs and the ray casting inside each run share its threads, so the batch never
     // uses more than `jobs` threads.
     let write_errors: Vec<Error> = pool.install(|| {
@@ -442,8 +460,9 @@ pub fn merge(
     out: &Path,
     reference: Option<PlannerKind>,
     keep_first: bool,
-) -> Result<usize> {
+) -> Result<(usize, Vec<String>)> {
     let mut rows = Vec::new();
+    let mut notes = Vec::new();
     for d in dirs {
         let path = d.join(store::RESULTS_JSONL);
         if !path.is_file() {
@@ -453,6 +472,7 @@ pub fn merge(
                 d.display()
             )));
         }
+        notes.extend(store::cut_row_warning(&path)?);
         rows.extend(store::read_jsonl(&path)?);
     }
     if let Some((k, n)) = conflicts(&rows) {
@@ -466,7 +486,7 @@ pub fn merge(
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let _lock = DirLock::take(out)?;
     // The sort is stable, so the first folder's copy of a run comes first and is the one kept.
-    write_all_from_rows(out, rows, reference)
+    Ok((write_all_from_rows(out, rows, reference)?, notes))
 }
 
 #[cfg(test)]
@@ -577,7 +597,7 @@ mod tests {
             "1 run(s) differ between the folders, e.g. a.obj greedy seed 2 (config c); pass --keep-first to keep the first folder's"
         );
         assert!(!out.exists(), "nothing is written on a conflict");
-        assert_eq!(merge(&[a, b], &out, None, true).unwrap(), 2);
+        assert_eq!(merge(&[a, b], &out, None, true).unwrap(), (2, Vec::new()));
         let rows = store::read_jsonl(&out.join(store::RESULTS_JSONL)).unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[1].error.as_deref(), Some("y"));

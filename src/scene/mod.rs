@@ -38,6 +38,9 @@ pub struct Scene {
     pub source: String,
     /// Things accepted but worth a one-line warning (e.g. OBJ faces with fewer than 3 vertices).
     pub warnings: Vec<String>,
+    /// Every file the scene was read from: the scene file, then what it names (a ROS map's image,
+    /// a glTF's buffer files). No output may be written over one of them.
+    pub inputs: Vec<PathBuf>,
 }
 
 /// The marker of a spawn line: `# tensorscout spawn X Y YAW` in OBJ, `comment tensorscout spawn …`
@@ -65,6 +68,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         )));
     };
     let mut warnings = Vec::new();
+    let mut inputs = vec![path.to_path_buf()];
     let (mut mesh, spawn, hash_bytes, source) = match ext.as_str() {
         "obj" | "ply" => {
             let bytes = read_nonempty(path)?;
@@ -84,11 +88,13 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         "gltf" | "glb" => {
             let bytes = read_nonempty(path)?;
             // glTF is y-up by its specification: always converted, whatever `scene.y_up` says.
-            let (mesh, hash_bytes) = gltf_mesh::parse(path, &bytes)?;
-            (mesh, None, hash_bytes, ext.clone())
+            let parsed = gltf_mesh::parse(path, &bytes)?;
+            inputs = parsed.buffer_files;
+            (parsed.mesh, None, parsed.hash_bytes, ext.clone())
         }
         "yaml" | "yml" => {
             let imported = rosmap::import(path, cfg)?;
+            inputs.push(imported.image);
             (imported.mesh, None, imported.hash_bytes, "ros-map".into())
         }
         "json" => {
@@ -117,6 +123,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         floor_z,
         source,
         warnings,
+        inputs,
     })
 }
 
@@ -144,6 +151,15 @@ pub fn open_region_warning(scene: &Scene, gt: &SceneTruth) -> Option<String> {
 /// coordinates or normals is an error naming its line (`tobj` would overflow computing the offset
 /// of a huge one), and faces with fewer than 3 vertices, which no loader can use, give a warning.
 fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
+    // OBJ is text: bytes that are not UTF-8 (a binary file, another encoding) are named by line.
+    if let Err(e) = std::str::from_utf8(bytes) {
+        let at = e.valid_up_to();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        return Err(Error::scene(
+            path,
+            format!("line {line}: not UTF-8 text (byte {at}); an OBJ file is text, is this a binary file?"),
+        ));
+    }
     let text = String::from_utf8_lossy(bytes);
     let mut counts = [0i64; 3];
     for line in text.lines() {
@@ -201,6 +217,10 @@ fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
 /// on what a mistaken path (a device, a huge unrelated file) can make the loader read.
 pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 30;
 
+/// Most triangles a scene may hold (about 1 GB with its vertices and ray-casting tree); glTF node
+/// graphs, which can repeat a mesh many times, are expanded only up to it.
+pub const MAX_TRIANGLES: usize = 10_000_000;
+
 /// 16 hex digits of FNV-1a 64 over `bytes`.
 pub fn content_hash(bytes: &[u8]) -> String {
     format!("{:016x}", crate::util::fnv1a64(bytes))
@@ -227,6 +247,15 @@ fn rotate_y_up_to_z_up(mesh: &mut TriMesh) {
 fn validate(path: &Path, mesh: &TriMesh, cfg: &SceneConfig) -> Result<f64> {
     if mesh.triangles.is_empty() {
         return Err(Error::scene(path, "mesh has no triangles"));
+    }
+    if mesh.triangles.len() > MAX_TRIANGLES {
+        return Err(Error::scene(
+            path,
+            format!(
+                "mesh has {} triangles, more than the {MAX_TRIANGLES} a scene may hold",
+                mesh.triangles.len()
+            ),
+        ));
     }
     if let Some(i) = mesh
         .vertices
