@@ -771,18 +771,29 @@ fn outputs_never_replace_inputs() {
         2,
         "--map-out and a file the scene reads name the same file",
     );
-    // A scene reached through a link to another folder: --map-out of that folder.
+    // A YAML reached through a link: --map-out of its folder would write its real file.
     let other = tempfile::tempdir().unwrap();
-    let linked = other.path().join("map.yaml");
-    symlink(&yaml, &linked).unwrap();
+    let real = other.path().join("map.yaml");
+    std::fs::write(
+        &real,
+        std::fs::read_to_string(&yaml)
+            .unwrap()
+            .replace("map.pgm", "img.pgm"),
+    )
+    .unwrap();
+    std::fs::copy(&image, other.path().join("img.pgm")).unwrap();
+    let alias = other.path().join("alias.yaml");
+    symlink(&real, &alias).unwrap();
+    let real_before = std::fs::read(&real).unwrap();
     let o = bin()
         .args(["explore", "-q", "--force", "--scene"])
-        .arg(&linked)
+        .arg(&alias)
         .arg("--map-out")
-        .arg(d)
+        .arg(other.path())
         .output()
         .unwrap();
-    assert_fails(&o, 2, "name the same file");
+    assert_fails(&o, 2, "--map-out and --scene name the same file");
+    assert_eq!(std::fs::read(&real).unwrap(), real_before);
     for (p, b) in inputs.iter().zip(&before) {
         assert_eq!(&std::fs::read(p).unwrap(), b, "{} changed", p.display());
     }
@@ -805,13 +816,19 @@ fn gltf_buffers_stay_beside_the_gltf() {
     std::fs::write(dir.path().join("x.bin"), [0u8; 64]).unwrap();
     std::os::unix::fs::symlink(dir.path().join("x.bin"), d.join("link.bin")).unwrap();
     std::os::unix::fs::symlink("/dev/zero", d.join("zero.bin")).unwrap();
+    let fifo = Command::new("mkfifo")
+        .arg(d.join("fifo.bin"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
     for (uri, needle) in [
         ("../x.bin", "lies outside the folder of the .gltf"),
         ("/etc/passwd", "lies outside the folder of the .gltf"),
         ("/dev/zero", "lies outside the folder of the .gltf"),
         ("%2E%2E/x.bin", "lies outside the folder of the .gltf"),
         ("link.bin", "lies outside the folder of the .gltf"),
-        ("zero.bin", "not a regular file"),
+        ("zero.bin", "lies outside the folder of the .gltf"),
+        ("fifo.bin", "not a regular file"),
     ] {
         let doc = serde_json::json!({
             "asset": {"version": "2.0"},
@@ -986,9 +1003,12 @@ fn random_start_ignores_a_bad_file_spawn() {
 /// called identical: the mismatch is the verdict.
 #[test]
 fn verify_covers_the_seed_it_reports() {
-    let bytes =
-        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz_seed_run.mcap"))
-            .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
+    let path = dir.path().join("run.mcap");
+    let o = explore_logged(&scene, &path, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&path).unwrap();
     let mut log = tensorscout::log::reader::read_log_bytes(&bytes).unwrap();
     let id = log.identity.as_mut().expect("the fixture has an identity");
     id.seed = id.seed.wrapping_add(1);
