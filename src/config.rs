@@ -630,10 +630,10 @@ impl Bound {
             return Ok(());
         }
         let msg = match self.span {
-            AboveTo if self.lo == 0.0 && !(v > 0.0) => {
+            AboveTo if self.lo == 0.0 && (v.is_nan() || v <= 0.0) => {
                 format!("must be a positive number, got {got}")
             }
-            Closed if self.lo == 0.0 && !(v >= 0.0) => {
+            Closed if self.lo == 0.0 && (v.is_nan() || v < 0.0) => {
                 format!("must be zero or positive, got {got}")
             }
             _ => format!("must lie in {}, got {got}", self.text()),

@@ -166,14 +166,17 @@ fn png_problems_found_before_the_run() {
     let _ = t0;
 }
 
+/// One `results.jsonl` row of a failed run of seed `seed`.
+fn failed_row(seed: u64) -> String {
+    format!(
+        "{{\"scene_path\":\"a.obj\",\"scene_hash\":\"h\",\"planner\":\"greedy\",\"seed\":{seed},\"config_hash\":\"c\",\"status\":\"failed\",\"error\":\"x\",\"result\":null}}\n"
+    )
+}
+
 #[test]
 fn bench_merge_refuses_existing_out() {
     let dir = tempfile::tempdir().unwrap();
-    let row = |seed: u64| {
-        format!(
-            "{{\"scene_path\":\"a.obj\",\"scene_hash\":\"h\",\"planner\":\"greedy\",\"seed\":{seed},\"config_hash\":\"c\",\"status\":\"failed\",\"error\":\"x\",\"result\":null}}\n"
-        )
-    };
+    let row = failed_row;
     let a = dir.path().join("a");
     let out = dir.path().join("out");
     std::fs::create_dir(&a).unwrap();
@@ -891,11 +894,7 @@ fn gltf_node_graph_expansion_is_bounded() {
 #[test]
 fn bench_merge_of_a_cut_shard_says_so() {
     let dir = tempfile::tempdir().unwrap();
-    let row = |seed: u64| {
-        format!(
-            "{{\"scene_path\":\"a.obj\",\"scene_hash\":\"h\",\"planner\":\"greedy\",\"seed\":{seed},\"config_hash\":\"c\",\"status\":\"failed\",\"error\":\"x\",\"result\":null}}\n"
-        )
-    };
+    let row = failed_row;
     let a = dir.path().join("a");
     std::fs::create_dir(&a).unwrap();
     let whole = format!("{}{}", row(1), row(2));

@@ -370,7 +370,8 @@ fn parse_spawn(path: &Path, rest: &str) -> Result<Pose2> {
 fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
     let opts = tobj::LoadOptions {
         single_index: false,
-        triangulate: true,
+        // Faces are triangulated below: tobj fans every polygon, which fills a concave one's notch.
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -380,6 +381,7 @@ fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
     })
     .map_err(|e| Error::scene(path, format!("cannot parse OBJ: {e}")))?;
     let mut mesh = TriMesh::default();
+    let mut faces = 0usize;
     for model in &models {
         let m = &model.mesh;
         let offset = mesh.vertices.len() as u32;
@@ -388,11 +390,22 @@ fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
                 .chunks_exact(3)
                 .map(|p| Point3::new(p[0], p[1], p[2])),
         );
-        mesh.triangles.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
-        );
+        let mut start = 0;
+        let arities: Box<dyn Iterator<Item = usize>> = if m.face_arities.is_empty() {
+            Box::new(std::iter::repeat_n(3, m.indices.len() / 3))
+        } else {
+            Box::new(m.face_arities.iter().map(|&a| a as usize))
+        };
+        for arity in arities {
+            let face: Vec<u32> = m.indices[start..start + arity]
+                .iter()
+                .map(|&i| i + offset)
+                .collect();
+            start += arity;
+            faces += 1;
+            mesh::triangulate_face(&mesh.vertices, &face, &mut mesh.triangles)
+                .map_err(|why| Error::scene(path, format!("face {faces} is {why}")))?;
+        }
     }
     let mut spawn = None;
     for line in String::from_utf8_lossy(bytes).lines() {
@@ -480,11 +493,9 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
                 format!("PLY face {f} uses vertex index {bad}, out of range for {n} vertices"),
             ));
         }
-        // Fan triangulation of convex polygons (PLY faces are planar polygons in practice).
-        for k in 1..idx.len().saturating_sub(1) {
-            mesh.triangles
-                .push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
-        }
+        let face: Vec<u32> = idx.iter().map(|&i| i as u32).collect();
+        mesh::triangulate_face(&mesh.vertices, &face, &mut mesh.triangles)
+            .map_err(|why| Error::scene(path, format!("PLY face {f} is {why}")))?;
     }
     let mut spawn = None;
     for c in &ply.header.comments {
