@@ -261,11 +261,18 @@ fn precheck_accessor_refs(bytes: &[u8]) -> std::result::Result<(), String> {
     // The first JSON value, whatever follows it (padding); bytes that are not UTF-8 become U+FFFD,
     // since the crate skips them inside keys it ignores.
     let text = String::from_utf8_lossy(json);
-    let Some(Ok(doc)) = serde_json::Deserializer::from_str(&text)
+    let doc = match serde_json::Deserializer::from_str(&text)
         .into_iter::<serde_json::Value>()
         .next()
-    else {
-        return Ok(());
+    {
+        Some(Ok(doc)) => doc,
+        // The crate skips keys it does not know without reading their values whole (a number
+        // beyond f64 there passes), so a document this check cannot read is refused here rather
+        // than handed over unchecked.
+        Some(Err(e)) if e.is_syntax() && e.to_string().contains("number out of range") => {
+            return Err(format!("cannot parse glTF: {e}"));
+        }
+        _ => return Ok(()),
     };
     let accessors = doc["accessors"].as_array().map_or(0, Vec::len);
     let check = |v: &serde_json::Value, what: &str| match v.as_u64() {
