@@ -29,7 +29,7 @@ const HANG_AFTER: Duration = Duration::from_secs(30);
 const MEMORY_LIMIT_KB: u64 = 4 << 20;
 
 fn usage() -> ExitCode {
-    eprintln!("usage: fuzz [--cases N] [--format all|obj|ply|pgm|yaml|houseexpo|toml|set|mcap[,...]] [--seed S] [--out DIR]");
+    eprintln!("usage: fuzz [--cases N] [--format all|obj|ply|pgm|yaml|houseexpo|toml|set|mcap|glb|gltf[,...]] [--seed S] [--out DIR]");
     ExitCode::from(2)
 }
 

@@ -435,193 +435,253 @@ pub struct NbvConfig {
     pub ga_stall_generations: usize,
 }
 
-/// Fails unless `v` is a finite number above zero, naming `key`.
-fn positive(key: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::usage(format!(
-            "config key `{key}` must be a positive number, got {}",
-            crate::util::short_number(v)
-        )))
+/// How a number key's bound reads: an interval of reals or a range of counts.
+#[derive(Clone, Copy, Debug)]
+enum Span {
+    /// `[lo, hi]`.
+    Closed,
+    /// `(lo, hi]`.
+    AboveTo,
+    /// `[lo, hi)`.
+    FromBelow,
+    /// `(lo, hi)`.
+    Open,
+    /// Whole numbers `lo..=hi`.
+    Count,
+}
+
+/// The bound of one number key: what is physically meaningful for it and what keeps a run's time
+/// and memory in reason. `configs/default.toml` states each in the key's comment (`# Bound: …`, the
+/// same text the error gives; a unit test holds the two together).
+#[derive(Clone, Copy, Debug)]
+struct Bound {
+    key: &'static str,
+    lo: f64,
+    hi: f64,
+    span: Span,
+}
+
+const fn b(key: &'static str, span: Span, lo: f64, hi: f64) -> Bound {
+    Bound { key, lo, hi, span }
+}
+
+use Span::{AboveTo, Closed, Count, FromBelow, Open};
+
+/// Every number key of the tree, in the order of `configs/default.toml`.
+const BOUNDS: &[Bound] = &[
+    b("seed", Count, 0.0, 9_223_372_036_854_775_807.0),
+    b("sim.dt_s", Closed, 0.001, 1.0),
+    b("sim.budget_s", AboveTo, 0.0, 1e6),
+    b("sim.stuck_timeout_s", AboveTo, 0.0, 1e6),
+    b("sim.stuck_min_gain_m3", Closed, 0.0, 1000.0),
+    b("sim.curve_interval_s", Closed, 0.01, 1e6),
+    b("sim.random_spawn_margin_m", Closed, 0.0, 10.0),
+    b("scene.wall_height_m", AboveTo, 0.0, 100.0),
+    b("scene.max_extent_m", AboveTo, 0.0, 10_000.0),
+    b("map.voxel_m", Closed, 0.01, 1.0),
+    b("map.margin_m", Closed, 0.0, 10.0),
+    b("map.band_min_m", Closed, 0.0, 10.0),
+    b("map.band_max_m", AboveTo, 0.0, 10.0),
+    b("map.log_odds_hit", AboveTo, 0.0, 100.0),
+    b("map.log_odds_miss", FromBelow, -100.0, 0.0),
+    b("map.log_odds_min", FromBelow, -100.0, 0.0),
+    b("map.log_odds_max", AboveTo, 0.0, 100.0),
+    b("map.log_odds_occupied", Closed, -100.0, 100.0),
+    b("map.column_known_fraction", Closed, 0.0, 1.0),
+    b("map.inflation_margin_m", Closed, 0.0, 2.0),
+    b("map.proximity_band_m", Closed, 0.0, 2.0),
+    b("map.frontier_segment_max_m", AboveTo, 0.0, 100.0),
+    b("map.frontier_min_cells", Count, 0.0, 100_000.0),
+    b("camera.hfov_deg", Open, 0.0, 180.0),
+    b("camera.vfov_deg", Open, 0.0, 180.0),
+    b("camera.min_range_m", Closed, 0.0, 100.0),
+    b("camera.max_range_m", AboveTo, 0.0, 100.0),
+    b("camera.width", Count, 1.0, 2048.0),
+    b("camera.height", Count, 1.0, 2048.0),
+    b("camera.mount_height_m", AboveTo, 0.0, 10.0),
+    b("camera.rate_hz", AboveTo, 0.0, 1000.0),
+    b("robot.radius_m", AboveTo, 0.0, 5.0),
+    b("robot.height_m", AboveTo, 0.0, 10.0),
+    b("robot.max_speed_mps", AboveTo, 0.0, 10.0),
+    b("robot.max_turn_rate_rps", AboveTo, 0.0, 20.0),
+    b(
+        "motion.turn_in_place_rad",
+        AboveTo,
+        0.0,
+        std::f64::consts::PI,
+    ),
+    b("motion.lookahead_m", AboveTo, 0.0, 100.0),
+    b("motion.goal_tolerance_m", AboveTo, 0.0, 10.0),
+    b("motion.slow_clearance_m", Closed, 0.0, 10.0),
+    b("search.near_unknown_radius_m", Closed, 0.0, 10.0),
+    b("search.proximity_cost", Closed, 0.0, 1e6),
+    b("greedy.view_distance_m", Closed, 0.0, 100.0),
+    b("field.d_s_m", Closed, 0.02, 10.0),
+    b("field.sigma_m", Closed, 0.01, 10.0),
+    b("field.decay", AboveTo, 0.0, 100.0),
+    b("field.tangent_radius_m", AboveTo, 0.0, 5.0),
+    b("field.min_tangent_anisotropy", Closed, 0.0, 1.0),
+    b("field.weight_cutoff", Open, 0.0, 1.0),
+    b("field.path_strength", Closed, 0.0, 1e6),
+    b("field.keyframe_period_s", Closed, 0.01, 1e6),
+    b("field.substeps", Count, 1.0, 1000.0),
+    b("field.omega_s", AboveTo, 0.0, 1e6),
+    b("field.omega_t", AboveTo, 0.0, 1e6),
+    b("field.alpha", AboveTo, 0.0, 1e9),
+    b("field.timevary_radius_m", AboveTo, 0.0, 50.0),
+    b("field.timevary_max_iterations", Count, 0.0, 100_000.0),
+    b("field.topology_sigma_factor", AboveTo, 0.0, 100.0),
+    b("field.topology_cell_factor", Count, 1.0, 16.0),
+    b("field.track_radius_m", Closed, 0.0, 10.0),
+    b("field.min_clearance_m", Closed, 0.0, 10.0),
+    b("field.rk4_step_m", Closed, 0.001, 1.0),
+    b("field.separatrix_max_length_m", Closed, 0.0, 10_000.0),
+    b("field.arrive_radius_m", AboveTo, 0.0, 10.0),
+    b("field.cancel_max_iterations", Count, 0.0, 100_000.0),
+    b("field.trisector_clearance_m", Closed, 0.0, 10.0),
+    b("field.max_move_m", Closed, 0.0, 100.0),
+    b("thp.field_period_s", Closed, 0.01, 1e6),
+    b("thp.d_f_m", AboveTo, 0.0, 100.0),
+    b("thp.d_g_m", AboveTo, 0.0, 100.0),
+    b("thp.d_p_m", AboveTo, 0.0, 100.0),
+    b("thp.kmeans_cluster_m", AboveTo, 0.0, 100.0),
+    b("thp.exact_tsp_max_nodes", Count, 1.0, 20.0),
+    b("thp.cost_refresh_s", AboveTo, 0.0, 1e6),
+    b("thp.cost_refresh_rows_max", Count, 1.0, 10_000.0),
+    b("thp.advect_length_m", AboveTo, 0.0, 100.0),
+    b("thp.drift_m", AboveTo, 0.0, 100.0),
+    b("thp.view_distance_m", Closed, 0.0, 100.0),
+    b("tensor.min_info_gain", Closed, 0.0, 1.0),
+    b("tensor.gain_radius_m", AboveTo, 0.0, 50.0),
+    b("tensor.advect_substeps", Count, 1.0, 1000.0),
+    b("tensor.dock_radius_m", AboveTo, 0.0, 10.0),
+    b("tensor.wall_clearance_m", Closed, 0.0, 10.0),
+    b("tensor.look_spacing_m", Closed, 0.0, 100.0),
+    b("tensor.stall_timeout_s", AboveTo, 0.0, 1e6),
+    b("nbv.eta", Closed, 0.0, 10.0),
+    b("nbv.sample_radius_m", AboveTo, 0.0, 50.0),
+    b("nbv.max_viewpoints", Count, 1.0, 10_000.0),
+    b("nbv.misses_per_m2", Closed, 0.0, 1000.0),
+    b("nbv.min_misses", Count, 0.0, 1e7),
+    b("nbv.gain_ray_stride", Count, 1.0, 4096.0),
+    b("nbv.visibility_length_m", AboveTo, 0.0, 10.0),
+    b("nbv.gain_cutoff_m3", Closed, 0.0, 1e6),
+    b("nbv.cover_min_visibility", Closed, 0.0, 1.0),
+    b("nbv.ga_population", Count, 1.0, 100_000.0),
+    b("nbv.ga_group_size", Count, 1.0, 100_000.0),
+    b("nbv.ga_generations", Count, 0.0, 1e6),
+    b("nbv.ga_stall_generations", Count, 0.0, 1e6),
+    b("additions.viewpoint_looks", Count, 0.0, 255.0),
+    b("additions.viewpoint_away_m", Closed, 0.0, 100.0),
+    b("additions.approach_attempts", Count, 1.0, 1000.0),
+    b("additions.unreached_give_up_m", Closed, 0.0, 100.0),
+    b("additions.blind_zone_look_first_m", Closed, 0.0, 1e6),
+    b("additions.volume_view_gain_cutoff_m3", Closed, 0.0, 1e6),
+    b("additions.volume_view_spacing_m", AboveTo, 0.0, 100.0),
+    b("additions.reopen_max", Count, 0.0, 255.0),
+    b("additions.escape_tries", Count, 0.0, 1000.0),
+    b("additions.escape_clearance_m", Closed, 0.0, 10.0),
+    b("additions.way_out_m", Closed, 0.0, 100.0),
+    b("additions.advection_stall_s", Closed, 0.0, 1e6),
+    b("log.depth_every_n", Count, 0.0, 1e6),
+    b("log.map_every_s", Closed, 0.01, 1e6),
+    b("log.zstd_level", Count, 1.0, 19.0),
+    b("log.chunk_size_kb", Count, 1.0, 65_536.0),
+    b("metrics.observable_spacing_m", Closed, 0.01, 10.0),
+    b("metrics.observable_yaws", Count, 1.0, 64.0),
+];
+
+impl Bound {
+    /// The bound as the comment and the error state it: `[0.01, 1]`, `(0, 5]`, `1..=2048`.
+    fn text(&self) -> String {
+        let (lo, hi) = (
+            crate::util::short_number(self.lo),
+            crate::util::short_number(self.hi),
+        );
+        match self.span {
+            Closed => format!("[{lo}, {hi}]"),
+            AboveTo => format!("({lo}, {hi}]"),
+            FromBelow => format!("[{lo}, {hi})"),
+            Open => format!("({lo}, {hi})"),
+            Count => format!("{}..={}", self.lo as i64, self.hi as i64),
+        }
+    }
+
+    fn holds(&self, v: f64) -> bool {
+        let (lo_ok, hi_ok) = match self.span {
+            Closed | Count => (v >= self.lo, v <= self.hi),
+            AboveTo => (v > self.lo, v <= self.hi),
+            FromBelow => (v >= self.lo, v < self.hi),
+            Open => (v > self.lo, v < self.hi),
+        };
+        lo_ok && hi_ok
+    }
+
+    /// Fails unless `v` lies in the bound, with the one-line error naming the key: a positive or
+    /// non-negative key refused for its sign says so, as the checked numbers ([`Positive`],
+    /// [`NonNegative`]) do.
+    fn check(&self, value: &toml::Value) -> Result<()> {
+        let (v, got) = match value {
+            toml::Value::Integer(i) => (*i as f64, i.to_string()),
+            toml::Value::Float(f) => (*f, crate::util::short_number(*f)),
+            _ => return Ok(()),
+        };
+        if self.holds(v) {
+            return Ok(());
+        }
+        let msg = match self.span {
+            AboveTo if self.lo == 0.0 && (v.is_nan() || v <= 0.0) => {
+                format!("must be a positive number, got {got}")
+            }
+            Closed if self.lo == 0.0 && (v.is_nan() || v < 0.0) => {
+                format!("must be zero or positive, got {got}")
+            }
+            _ => format!("must lie in {}, got {got}", self.text()),
+        };
+        Err(Error::usage(format!("config key `{}` {msg}", self.key)))
     }
 }
 
-/// Fails unless `v` is a finite number of at least zero, naming `key`.
-fn non_negative(key: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
+/// The value at dotted `key` of a config tree.
+fn value_at<'a>(tree: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
+    let (section, name) = key.rsplit_once('.').unwrap_or(("", key));
+    let table = if section.is_empty() {
+        tree
     } else {
-        Err(Error::usage(format!(
-            "config key `{key}` must be zero or positive, got {}",
-            crate::util::short_number(v)
-        )))
-    }
-}
-
-/// Fails unless `lo <= v <= hi` (a finite number), naming `key` and the bound. Bounds on values that
-/// cost time or memory; each is stated in `configs/default.toml`'s comment for the key.
-fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
-    if v.is_finite() && (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(Error::usage(format!(
-            "config key `{key}` must lie in [{}, {}], got {}",
-            crate::util::short_number(lo),
-            crate::util::short_number(hi),
-            crate::util::short_number(v)
-        )))
-    }
-}
-
-/// Fails unless the count `v` lies in `lo..=hi`, naming `key` and the bound.
-fn count_within(key: &str, v: u64, lo: u64, hi: u64) -> Result<()> {
-    if (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(Error::usage(format!(
-            "config key `{key}` must lie in {lo}..={hi}, got {v}"
-        )))
-    }
+        tree.get(section)?.as_table()?
+    };
+    table.get(name)
 }
 
 impl MapConfig {
-    /// The `map` section's own checks.
+    /// What relates the `map` keys to each other (each key's own bound is in [`BOUNDS`]).
     fn validate(&self) -> Result<()> {
-        positive("map.voxel_m", self.voxel_m)?;
-        within("map.voxel_m", self.voxel_m, 0.01, 1.0)?;
-        non_negative("map.margin_m", self.margin_m)?;
-        non_negative("map.band_min_m", self.band_min_m)?;
-        positive("map.band_max_m", self.band_max_m)?;
+        // The band takes the voxel layers whose centres lie in it; at or below half a voxel it
+        // would take the floor's own layer, and every floor cell would be an obstacle.
+        if self.band_min_m <= self.voxel_m / 2.0 {
+            return Err(Error::usage(format!(
+                "config key `map.band_min_m` ({}) must exceed half of `map.voxel_m` ({}), or the floor itself counts as an obstacle",
+                self.band_min_m, self.voxel_m
+            )));
+        }
         if self.band_max_m <= self.band_min_m + self.voxel_m {
             return Err(Error::usage(format!(
                 "config key `map.band_max_m` ({}) must exceed `map.band_min_m` ({}) by more than one voxel",
                 self.band_max_m, self.band_min_m
             )));
         }
-        positive("map.log_odds_hit", self.log_odds_hit as f64)?;
-        if self.log_odds_miss.is_nan() || self.log_odds_miss >= 0.0 {
+        if !(self.log_odds_min..self.log_odds_max).contains(&self.log_odds_occupied) {
             return Err(Error::usage(format!(
-                "config key `map.log_odds_miss` must be negative, got {}",
-                self.log_odds_miss
+                "config key `map.log_odds_occupied` ({}) must lie in [`map.log_odds_min`, `map.log_odds_max`) ({}, {})",
+                self.log_odds_occupied, self.log_odds_min, self.log_odds_max
             )));
         }
-        if !(self.log_odds_min < 0.0 && self.log_odds_max > 0.0) {
-            return Err(Error::usage(
-                "config keys `map.log_odds_min` and `map.log_odds_max` must be negative and positive",
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.column_known_fraction) {
-            return Err(Error::usage(format!(
-                "config key `map.column_known_fraction` must lie in [0, 1], got {}",
-                self.column_known_fraction
-            )));
-        }
-        non_negative("map.inflation_margin_m", self.inflation_margin_m)?;
-        positive("map.frontier_segment_max_m", self.frontier_segment_max_m)?;
-        non_negative("map.proximity_band_m", self.proximity_band_m)?;
-        Ok(())
-    }
-}
-
-impl ThpConfig {
-    fn validate(&self) -> Result<()> {
-        for (key, v) in [
-            ("thp.field_period_s", self.field_period_s),
-            ("thp.d_f_m", self.d_f_m),
-            ("thp.d_g_m", self.d_g_m),
-            ("thp.d_p_m", self.d_p_m),
-            ("thp.kmeans_cluster_m", self.kmeans_cluster_m),
-            ("thp.cost_refresh_s", self.cost_refresh_s),
-            ("thp.advect_length_m", self.advect_length_m),
-            ("thp.drift_m", self.drift_m),
-        ] {
-            positive(key, v)?;
-        }
-        non_negative("thp.view_distance_m", self.view_distance_m)?;
-        within("thp.field_period_s", self.field_period_s, 0.01, 1e6)?;
-        if !(1..=20).contains(&self.exact_tsp_max_nodes) {
-            return Err(Error::usage(format!(
-                "config key `thp.exact_tsp_max_nodes` must lie in 1..=20 (Held–Karp needs 2^n memory), got {}",
-                self.exact_tsp_max_nodes
-            )));
-        }
-        if self.cost_refresh_rows_max == 0 {
-            return Err(Error::usage(
-                "config key `thp.cost_refresh_rows_max` must be at least 1 (at 0 an old row would never be recomputed)",
-            ));
-        }
-        Ok(())
-    }
-}
-
-impl TensorConfig {
-    fn validate(&self) -> Result<()> {
-        non_negative("tensor.min_info_gain", self.min_info_gain)?;
-        for (key, v) in [
-            ("tensor.gain_radius_m", self.gain_radius_m),
-            ("tensor.dock_radius_m", self.dock_radius_m),
-            ("tensor.stall_timeout_s", self.stall_timeout_s),
-        ] {
-            positive(key, v)?;
-        }
-        non_negative("tensor.wall_clearance_m", self.wall_clearance_m)?;
-        non_negative("tensor.look_spacing_m", self.look_spacing_m)?;
-        count_within(
-            "tensor.advect_substeps",
-            self.advect_substeps as u64,
-            1,
-            1000,
-        )?;
         Ok(())
     }
 }
 
 impl NbvConfig {
     fn validate(&self) -> Result<()> {
-        non_negative("nbv.eta", self.eta)?;
-        for (key, v) in [
-            ("nbv.sample_radius_m", self.sample_radius_m),
-            ("nbv.visibility_length_m", self.visibility_length_m),
-        ] {
-            positive(key, v)?;
-        }
-        non_negative("nbv.misses_per_m2", self.misses_per_m2)?;
-        non_negative("nbv.gain_cutoff_m3", self.gain_cutoff_m3)?;
-        if !(0.0..=1.0).contains(&self.cover_min_visibility) {
-            return Err(Error::usage(format!(
-                "config key `nbv.cover_min_visibility` must lie in [0, 1], got {}",
-                self.cover_min_visibility
-            )));
-        }
-        for (key, v) in [
-            ("nbv.max_viewpoints", self.max_viewpoints),
-            ("nbv.gain_ray_stride", self.gain_ray_stride),
-            ("nbv.ga_population", self.ga_population),
-            ("nbv.ga_group_size", self.ga_group_size),
-        ] {
-            if v == 0 {
-                return Err(Error::usage(format!(
-                    "config key `{key}` must be at least 1, got 0"
-                )));
-            }
-        }
-        for (key, v, lo, hi) in [
-            ("nbv.max_viewpoints", self.max_viewpoints, 1, 10_000),
-            ("nbv.gain_ray_stride", self.gain_ray_stride, 1, 4096),
-            ("nbv.ga_population", self.ga_population, 1, 100_000),
-            ("nbv.ga_group_size", self.ga_group_size, 1, 100_000),
-            ("nbv.ga_generations", self.ga_generations, 0, 1_000_000),
-            (
-                "nbv.ga_stall_generations",
-                self.ga_stall_generations,
-                0,
-                1_000_000,
-            ),
-            ("nbv.min_misses", self.min_misses, 0, 1_000_000_000),
-        ] {
-            count_within(key, v as u64, lo, hi)?;
-        }
         if self.ga_group_size > self.ga_population {
             return Err(Error::usage(format!(
                 "config key `nbv.ga_group_size` ({}) must not exceed `nbv.ga_population` ({})",
@@ -768,120 +828,66 @@ impl Config {
         format!("{:016x}", crate::util::fnv1a64(self.to_toml().as_bytes()))
     }
 
-    /// Rejects values that are of the right type but make no sense, naming the key. Each section
-    /// checks its own keys (a check that relates a section to another takes the other value as an
-    /// argument); [`Positive`] and [`NonNegative`] keys were checked when the tree was parsed. The
-    /// order is that of the sections in the file, so that a config with several faults names the
-    /// first one.
+    /// Rejects values that are of the right type but make no sense, naming the key: first each
+    /// number against its bound ([`BOUNDS`], in the order of the file, so that a config with several
+    /// faults names the first one), then what relates keys to each other.
     pub fn validate(&self) -> Result<()> {
+        let seed = &BOUNDS[0];
+        if self.seed > seed.hi as u64 {
+            return Err(Error::usage(format!(
+                "config key `seed` must lie in {}, got {}",
+                seed.text(),
+                self.seed
+            )));
+        }
+        let tree = toml::Table::try_from(self).expect("a config with a bounded seed serialises");
+        for bound in BOUNDS {
+            if let Some(v) = value_at(&tree, bound.key) {
+                bound.check(v)?;
+            }
+        }
         self.sim.validate()?;
         self.metrics.validate(self.map.voxel_m)?;
-        self.log.validate()?;
-        self.scene.validate()?;
         self.map.validate()?;
         self.camera.validate()?;
         self.robot.validate(self.sim.dt_s)?;
-        self.greedy.validate()?;
-        self.search.validate()?;
-        self.motion.validate()?;
-        self.field.validate()?;
-        self.thp.validate()?;
-        self.tensor.validate()?;
         self.nbv.validate()?;
-        self.additions.validate()?;
         Ok(())
     }
 }
 
 impl SimConfig {
     fn validate(&self) -> Result<()> {
-        // Bounds on what costs time or memory (stated in configs/default.toml).
-        within("sim.dt_s", self.dt_s, 0.001, 1.0)?;
-        within("sim.budget_s", self.budget_s.get(), 0.0, 1e6)?;
         if self.dt_s > self.budget_s.get() {
             return Err(Error::usage(format!(
                 "config key `sim.dt_s` ({}) must not exceed `sim.budget_s` ({}): the run would take no step",
                 self.dt_s, self.budget_s.get()
             )));
         }
-        within("sim.curve_interval_s", self.curve_interval_s, 0.01, 1e6)?;
-        within(
-            "sim.random_spawn_margin_m",
-            self.random_spawn_margin_m,
-            0.0,
-            10.0,
-        )?;
         Ok(())
     }
 }
 
 impl MetricsConfig {
-    /// The observable set's sampling; its spacing may not be finer than the map's voxels
-    /// (`voxel_m`).
+    /// The observable set's spacing may not be finer than the map's voxels (`voxel_m`).
     fn validate(&self, voxel_m: f64) -> Result<()> {
-        within(
-            "metrics.observable_spacing_m",
-            self.observable_spacing_m,
-            0.01,
-            10.0,
-        )?;
         if self.observable_spacing_m < voxel_m {
             return Err(Error::usage(format!(
                 "config key `metrics.observable_spacing_m` ({}) must be at least `map.voxel_m` ({})",
                 self.observable_spacing_m, voxel_m
             )));
         }
-        if !(1..=64).contains(&self.observable_yaws) {
-            return Err(Error::usage(format!(
-                "config key `metrics.observable_yaws` must lie in 1..=64, got {}",
-                self.observable_yaws
-            )));
-        }
-        Ok(())
-    }
-}
-
-impl LogConfig {
-    fn validate(&self) -> Result<()> {
-        within("log.map_every_s", self.map_every_s, 0.01, 1e6)?;
-        if !(1..=19).contains(&self.zstd_level) {
-            return Err(Error::usage(format!(
-                "config key `log.zstd_level` must be 1..=19, got {}",
-                self.zstd_level
-            )));
-        }
-        count_within("log.chunk_size_kb", self.chunk_size_kb, 1, 65_536)
-    }
-}
-
-impl SceneConfig {
-    /// Both lengths are [`Positive`]: nothing is left to check.
-    fn validate(&self) -> Result<()> {
         Ok(())
     }
 }
 
 impl CameraConfig {
     fn validate(&self) -> Result<()> {
-        for (key, v) in [
-            ("camera.hfov_deg", self.hfov_deg),
-            ("camera.vfov_deg", self.vfov_deg),
-        ] {
-            if !(v > 0.0 && v < 180.0) {
-                return Err(Error::usage(format!(
-                    "config key `{key}` must lie in (0, 180), got {v}"
-                )));
-            }
-        }
-        within("camera.max_range_m", self.max_range_m.get(), 0.0, 100.0)?;
         if self.min_range_m.get() >= self.max_range_m.get() {
             return Err(Error::usage(
                 "config key `camera.min_range_m` must be below `camera.max_range_m`",
             ));
         }
-        count_within("camera.width", self.width as u64, 1, 2048)?;
-        count_within("camera.height", self.height as u64, 1, 2048)?;
-        within("camera.rate_hz", self.rate_hz.get(), 0.0, 1000.0)?;
         Ok(())
     }
 }
@@ -889,10 +895,6 @@ impl CameraConfig {
 impl RobotConfig {
     /// The robot's size and speeds, and the step `dt_s` they allow.
     fn validate(&self, dt_s: f64) -> Result<()> {
-        positive("robot.radius_m", self.radius_m)?;
-        positive("robot.height_m", self.height_m)?;
-        positive("robot.max_speed_mps", self.max_speed_mps)?;
-        positive("robot.max_turn_rate_rps", self.max_turn_rate_rps)?;
         // A step at full speed may not carry the robot further than its own radius: motion,
         // collision checks and sensing happen once per step, so a longer step could jump the disc
         // past a wall.
@@ -905,129 +907,6 @@ impl RobotConfig {
                 crate::util::short_number(self.radius_m / self.max_speed_mps)
             )));
         }
-        Ok(())
-    }
-}
-
-impl GreedyConfig {
-    /// `view_distance_m` is [`NonNegative`]: nothing is left to check.
-    fn validate(&self) -> Result<()> {
-        Ok(())
-    }
-}
-
-impl Additions {
-    /// Counts bounded by what is meaningful; the lengths are newtypes that check themselves.
-    fn validate(&self) -> Result<()> {
-        count_within(
-            "additions.viewpoint_looks",
-            u64::from(self.viewpoint_looks),
-            0,
-            255,
-        )?;
-        count_within(
-            "additions.approach_attempts",
-            u64::from(self.approach_attempts),
-            1,
-            1000,
-        )?;
-        count_within("additions.reopen_max", u64::from(self.reopen_max), 0, 255)?;
-        count_within(
-            "additions.escape_tries",
-            u64::from(self.escape_tries),
-            0,
-            1000,
-        )?;
-        within("additions.way_out_m", self.way_out_m.get(), 0.0, 100.0)?;
-        within(
-            "additions.unreached_give_up_m",
-            self.unreached_give_up_m.get(),
-            0.0,
-            100.0,
-        )?;
-        Ok(())
-    }
-}
-
-impl SearchConfig {
-    fn validate(&self) -> Result<()> {
-        non_negative("search.proximity_cost", self.proximity_cost)?;
-        non_negative("search.near_unknown_radius_m", self.near_unknown_radius_m)
-    }
-}
-
-impl MotionConfig {
-    fn validate(&self) -> Result<()> {
-        positive("motion.goal_tolerance_m", self.goal_tolerance_m)
-    }
-}
-
-impl FieldConfig {
-    fn validate(&self) -> Result<()> {
-        let f = self;
-        for (key, v) in [
-            ("field.d_s_m", f.d_s_m),
-            ("field.sigma_m", f.sigma_m),
-            ("field.decay", f.decay),
-            ("field.tangent_radius_m", f.tangent_radius_m),
-            ("field.keyframe_period_s", f.keyframe_period_s),
-            ("field.omega_s", f.omega_s),
-            ("field.omega_t", f.omega_t),
-            ("field.alpha", f.alpha),
-            ("field.timevary_radius_m", f.timevary_radius_m),
-            ("field.topology_sigma_factor", f.topology_sigma_factor),
-            ("field.rk4_step_m", f.rk4_step_m),
-            ("field.arrive_radius_m", f.arrive_radius_m),
-        ] {
-            positive(key, v)?;
-        }
-        for (key, v) in [
-            ("field.min_tangent_anisotropy", f.min_tangent_anisotropy),
-            ("field.path_strength", f.path_strength),
-            ("field.track_radius_m", f.track_radius_m),
-            ("field.min_clearance_m", f.min_clearance_m),
-            ("field.separatrix_max_length_m", f.separatrix_max_length_m),
-            ("field.trisector_clearance_m", f.trisector_clearance_m),
-            ("field.max_move_m", f.max_move_m),
-        ] {
-            non_negative(key, v)?;
-        }
-        if !(f.weight_cutoff > 0.0 && f.weight_cutoff < 1.0) {
-            return Err(Error::usage(format!(
-                "config key `field.weight_cutoff` must lie in (0, 1), got {}",
-                f.weight_cutoff
-            )));
-        }
-        within("field.d_s_m", f.d_s_m, 0.02, 10.0)?;
-        within("field.sigma_m", f.sigma_m, 0.01, 10.0)?;
-        within("field.rk4_step_m", f.rk4_step_m, 0.001, 1.0)?;
-        within("field.keyframe_period_s", f.keyframe_period_s, 0.01, 1e6)?;
-        within("field.timevary_radius_m", f.timevary_radius_m, 0.0, 50.0)?;
-        within(
-            "field.separatrix_max_length_m",
-            f.separatrix_max_length_m,
-            0.0,
-            10_000.0,
-        )?;
-        count_within("field.substeps", f.substeps as u64, 1, 1000)?;
-        count_within(
-            "field.topology_cell_factor",
-            f.topology_cell_factor as u64,
-            1,
-            16,
-        )?;
-        count_within(
-            "field.timevary_max_iterations",
-            f.timevary_max_iterations as u64,
-            0,
-            100_000,
-        )?;
-        count_within(
-            "field.cancel_max_iterations",
-            f.cancel_max_iterations as u64,
-            0,
-            100_000,
-        )?;
         Ok(())
     }
 }
@@ -1097,8 +976,18 @@ fn apply_override(tree: &mut toml::Table, item: &str) -> Result<()> {
     let value = format!("v = {raw}")
         .parse::<toml::Table>()
         .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+        .and_then(|mut t| t.remove("v"));
+    // A whole number beyond TOML's 64-bit integers would otherwise be taken as a string.
+    if value.is_none() && raw.parse::<i128>().is_ok() {
+        let within = BOUNDS.iter().find(|b| b.key == key).map_or(
+            "[-9223372036854775808, 9223372036854775807]".to_string(),
+            Bound::text,
+        );
+        return Err(Error::usage(format!(
+            "config key `{key}` must lie in {within}, got {raw}"
+        )));
+    }
+    let value = value.unwrap_or_else(|| toml::Value::String(raw.to_string()));
     let mut user = toml::Table::new();
     let parts: Vec<&str> = key.split('.').collect();
     let mut slot = &mut user;
@@ -1252,7 +1141,7 @@ mod tests {
         let e = Config::load(None, &["map.voxel_m=-0.1".into()]).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "config key `map.voxel_m` must be a positive number, got -0.1"
+            "config key `map.voxel_m` must lie in [0.01, 1], got -0.1"
         );
     }
 
@@ -1310,12 +1199,12 @@ mod tests {
         let e = Config::load(None, &["field.sigma_m=0".into()]).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "config key `field.sigma_m` must be a positive number, got 0"
+            "config key `field.sigma_m` must lie in [0.01, 10], got 0"
         );
         let e = Config::load(None, &["thp.cost_refresh_rows_max=0".into()]).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "config key `thp.cost_refresh_rows_max` must be at least 1 (at 0 an old row would never be recomputed)"
+            "config key `thp.cost_refresh_rows_max` must lie in 1..=10000, got 0"
         );
         assert_eq!(e.exit_code(), 2);
     }
@@ -1378,29 +1267,110 @@ mod tests {
             assert_eq!(e.to_string(), msg);
             assert_eq!(e.exit_code(), 2);
         }
-        // Every bound is stated in the default config's comment for its key.
-        for key in [
-            "dt_s",
-            "rk4_step_m",
-            "d_s_m",
-            "voxel_m",
-            "width",
-            "height",
-            "substeps",
-        ] {
-            let i = DEFAULT_TOML
-                .find(&format!("\n{key} = "))
-                .unwrap_or_else(|| panic!("{key}"));
-            let comments: Vec<&str> = DEFAULT_TOML[..i]
-                .lines()
-                .rev()
-                .take_while(|l| l.starts_with('#'))
-                .collect();
+    }
+
+    /// The number keys of a tree, dotted, in the order of the file.
+    fn number_keys(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+        for (k, v) in table {
+            let key = format!("{prefix}{k}");
+            match v {
+                toml::Value::Table(t) => number_keys(t, &format!("{key}."), out),
+                toml::Value::Integer(_) | toml::Value::Float(_) => out.push(key),
+                _ => {}
+            }
+        }
+    }
+
+    /// Every number key has a bound, stated in its comment in `configs/default.toml` as the error
+    /// states it; both profiles' defaults lie within.
+    #[test]
+    fn every_number_key_is_bounded_and_says_so() {
+        let mut keys = Vec::new();
+        number_keys(&default_tree(), "", &mut keys);
+        let mut bounded: Vec<String> = BOUNDS.iter().map(|b| b.key.to_string()).collect();
+        keys.sort();
+        bounded.sort();
+        assert_eq!(keys, bounded);
+        let lines: Vec<&str> = DEFAULT_TOML.lines().collect();
+        let mut section = String::new();
+        for (i, line) in lines.iter().enumerate() {
+            if let Some(s) = line.strip_prefix('[').and_then(|s| s.strip_suffix(']')) {
+                section = format!("{s}.");
+                continue;
+            }
+            let Some((name, _)) = line.split_once(" = ").filter(|_| !line.starts_with('#')) else {
+                continue;
+            };
+            let key = format!("{section}{name}");
+            let Some(bound) = BOUNDS.iter().find(|b| b.key == key) else {
+                continue;
+            };
+            let stated = format!("# Bound: {}", bound.text());
+            let comment = lines[..i].iter().rev().take_while(|l| l.starts_with('#'));
             assert!(
-                comments.iter().any(|l| l.starts_with("# Bound: ")),
-                "{key}: {comments:?}"
+                comment.clone().any(|l| l.starts_with(&stated)),
+                "{key}: no `{stated}` line in its comment"
             );
         }
+        for profile in [Profile::Tensorscout, Profile::Published] {
+            Config::of_profile(profile).validate().unwrap();
+        }
+    }
+
+    /// Each number key refuses what lies outside its bound with a one-line usage error naming it,
+    /// and each of 0, -1, NaN, ±inf and 1e308 is either refused so or accepted.
+    #[test]
+    fn every_number_key_refuses_what_lies_outside() {
+        for bound in BOUNDS {
+            let key = bound.key;
+            for raw in ["0", "-1", "nan", "inf", "-inf", "1e308", "1e20", "-1e308"] {
+                match Config::load(None, &[format!("{key}={raw}")]) {
+                    Ok(c) => {
+                        let tree = toml::Table::try_from(&c).unwrap();
+                        let v = value_at(&tree, key).unwrap();
+                        assert!(bound.check(v).is_ok(), "{key}={raw} accepted as {v}");
+                    }
+                    Err(e) => {
+                        let msg = e.to_string();
+                        assert_eq!(e.exit_code(), 2, "{key}={raw}: {msg}");
+                        assert!(!msg.contains('\n'), "{key}={raw}: {msg}");
+                        assert!(
+                            msg.contains(&format!("`{key}`")) || msg.contains(key),
+                            "{key}={raw}: {msg}"
+                        );
+                    }
+                }
+            }
+            let beyond = if matches!(bound.span, Count) {
+                format!("{}", bound.hi as i64 + 1)
+            } else {
+                format!("{:e}", bound.hi * 2.0 + 1.0)
+            };
+            if key != "seed" {
+                let e = Config::load(None, &[format!("{key}={beyond}")]).unwrap_err();
+                assert_eq!(
+                    e.to_string(),
+                    format!("config key `{key}` must lie in {}, got {}", bound.text(), {
+                        let v: f64 = beyond.parse().unwrap();
+                        if matches!(bound.span, Count) {
+                            beyond.clone()
+                        } else {
+                            crate::util::short_number(v)
+                        }
+                    }),
+                );
+            }
+        }
+        let e = Config::load(None, &["seed=18446744073709551615".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `seed` must lie in 0..=9223372036854775807, got 18446744073709551615"
+        );
+        let e = Config::load(None, &["map.log_odds_occupied=nan".into()]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "config key `map.log_odds_occupied` must lie in [-100, 100], got NaN"
+        );
     }
 
     #[test]

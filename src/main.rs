@@ -1,6 +1,6 @@
 //! The `tensorscout` command line: parse, call the library, print, exit.
-//! Exit codes: 0 success, 1 run-time failure, 2 usage error (clap's own parse errors too), 130 after
-//! SIGINT and 143 after SIGTERM. Every error is one line on stderr.
+//! Exit codes: 0 success, 1 run-time failure, 2 usage error (clap's own parse errors too), 129 after
+//! SIGHUP, 130 after SIGINT and 143 after SIGTERM. Every error is one line on stderr.
 
 mod cli;
 

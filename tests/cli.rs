@@ -61,7 +61,7 @@ fn bad_flags_and_config_are_usage_errors() {
     assert_fails(
         &run(&["explore", "--scene", s, "--set", "map.voxel_m=-0.1"]),
         2,
-        "`map.voxel_m` must be a positive number",
+        "`map.voxel_m` must lie in [0.01, 1], got -0.1",
     );
     let cfg = write(dir.path(), "bad.toml", "[camera]\nwidht = 10\n");
     assert_fails(

@@ -382,3 +382,55 @@ fn map_out_and_trajectory_are_written_checked_and_read_back() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
 }
+
+/// A U-shaped face (a 3 × 3 m square with a 1 × 2 m notch) in OBJ and PLY is triangulated without
+/// covering its notch: the triangles' area is the U's 7 m², and none holds the notch's centre.
+#[test]
+fn concave_faces_leave_their_notch_free() {
+    let u = [
+        [0.0, 0.0],
+        [3.0, 0.0],
+        [3.0, 3.0],
+        [2.0, 3.0],
+        [2.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 3.0],
+        [0.0, 3.0],
+    ];
+    let verts: String = u
+        .iter()
+        .map(|p| format!("v {} {} 0\n", p[0], p[1]))
+        .collect();
+    // A wall triangle beside it gives the scene its height.
+    let obj = format!("{verts}v 5 0 0\nv 5 1 0\nv 5 0 2.5\nf 1 2 3 4 5 6 7 8\nf 9 10 11\n");
+    let ply_verts: String = u.iter().map(|p| format!("{} {} 0\n", p[0], p[1])).collect();
+    let ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex 11\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n{ply_verts}5 0 0\n5 1 0\n5 0 2.5\n8 0 1 2 3 4 5 6 7\n3 8 9 10\n"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in [("u.obj", obj), ("u.ply", ply)] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let scene = tensorscout::scene::load(&path, &tensorscout::Config::default().scene).unwrap();
+        let mesh = &scene.mesh;
+        let xy = |i: u32| {
+            let v = mesh.vertices[i as usize];
+            [v.x as f64, v.y as f64]
+        };
+        let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        };
+        let mut area = 0.0;
+        let floor = &mesh.triangles[..mesh.triangles.len() - 1];
+        for t in floor {
+            let (a, b, c) = (xy(t[0]), xy(t[1]), xy(t[2]));
+            area += cross(a, b, c).abs() / 2.0;
+            let q = [1.5, 2.0];
+            let s = [cross(a, b, q), cross(b, c, q), cross(c, a, q)];
+            let holds = s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0);
+            assert!(!holds, "{name}: triangle {t:?} covers the notch");
+        }
+        assert!((area - 7.0).abs() < 1e-9, "{name}: area {area}");
+        assert_eq!(floor.len(), 6, "{name}");
+    }
+}

@@ -91,6 +91,12 @@ fn fuzz_smoke_glb() {
     smoke(Format::Glb, 300);
 }
 
+#[test]
+#[ignore = "heavy tier: cargo test -- --ignored"]
+fn fuzz_smoke_gltf() {
+    smoke(Format::Gltf, 300);
+}
+
 /// The mutator is deterministic: a case is reproduced from its index alone.
 #[test]
 fn fuzz_cases_are_reproducible() {

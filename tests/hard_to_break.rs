@@ -166,14 +166,17 @@ fn png_problems_found_before_the_run() {
     let _ = t0;
 }
 
+/// One `results.jsonl` row of a failed run of seed `seed`.
+fn failed_row(seed: u64) -> String {
+    format!(
+        "{{\"scene_path\":\"a.obj\",\"scene_hash\":\"h\",\"planner\":\"greedy\",\"seed\":{seed},\"config_hash\":\"c\",\"status\":\"failed\",\"error\":\"x\",\"result\":null}}\n"
+    )
+}
+
 #[test]
 fn bench_merge_refuses_existing_out() {
     let dir = tempfile::tempdir().unwrap();
-    let row = |seed: u64| {
-        format!(
-            "{{\"scene_path\":\"a.obj\",\"scene_hash\":\"h\",\"planner\":\"greedy\",\"seed\":{seed},\"config_hash\":\"c\",\"status\":\"failed\",\"error\":\"x\",\"result\":null}}\n"
-        )
-    };
+    let row = failed_row;
     let a = dir.path().join("a");
     let out = dir.path().join("out");
     std::fs::create_dir(&a).unwrap();
@@ -414,7 +417,7 @@ fn send(child: &std::process::Child, signal: &str) {
 }
 
 #[test]
-fn interrupted_runs_exit_130_or_143() {
+fn interrupted_runs_exit_129_130_or_143() {
     let dir = tempfile::tempdir().unwrap();
     // A large scene, so that the runs are still going when the signal comes.
     let scene = dir.path().join("office_large.obj");
@@ -431,7 +434,7 @@ fn interrupted_runs_exit_130_or_143() {
         "--set",
         "sim.initial_look_around=false",
     ];
-    for (signal, code) in [("-INT", 130), ("-TERM", 143)] {
+    for (signal, code) in [("-INT", 130), ("-TERM", 143), ("-HUP", 129)] {
         // An unlogged run stops cleanly and prints its (interrupted) result.
         let child = bin()
             .args(["explore", "--json", "-q", "--planner", "greedy", "--scene"])
@@ -706,4 +709,318 @@ fn bad_mesh_data_warned_or_refused() {
         "{}",
         stderr(&o)
     );
+}
+
+/// Every output flag of `explore`, with `--force`, against every input (the scene, the config, the
+/// map image a ROS map names), spelled directly, as a symbolic link and as a hard link: refused
+/// with exit 2, and no input changes. A link given as an output is refused even when it dangles,
+/// and nothing is created at its target.
+#[test]
+fn outputs_never_replace_inputs() {
+    use std::os::unix::fs::symlink;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    // The scene is `room.yaml`, naming the image `map.pgm` beside it.
+    let yaml = write(
+        d,
+        "room.yaml",
+        &std::fs::read_to_string(data.join("map.yaml")).unwrap(),
+    );
+    let image = d.join("map.pgm");
+    std::fs::copy(data.join("map.pgm"), &image).unwrap();
+    let config = write(d, "c.toml", "[sim]\nbudget_s = 5.0\n");
+    let inputs = [&yaml, &image, &config];
+    let before: Vec<Vec<u8>> = inputs.iter().map(|p| std::fs::read(p).unwrap()).collect();
+    let explore = |out_flag: &str, out: &Path| {
+        bin()
+            .args(["explore", "-q", "--force", "--planner", "greedy", "--scene"])
+            .arg(&yaml)
+            .arg("--config")
+            .arg(&config)
+            .arg(out_flag)
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    for (n, input) in inputs.iter().enumerate() {
+        let sym = d.join(format!("sym{n}.png"));
+        symlink(input, &sym).unwrap();
+        let hard = d.join(format!("hard{n}.png"));
+        std::fs::hard_link(input, &hard).unwrap();
+        for flag in ["--log", "--trajectory", "--png"] {
+            let mut spellings = vec![sym.clone(), hard.clone()];
+            if flag != "--png" {
+                spellings.push(input.to_path_buf());
+                spellings.push(d.join(".").join(input.file_name().unwrap()));
+            }
+            for out in &spellings {
+                let o = explore(flag, out);
+                let err = stderr(&o);
+                assert_eq!(o.status.code(), Some(2), "{flag} {}: {err}", out.display());
+                assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+                assert!(
+                    err.contains("name the same file") || err.contains("symbolic link"),
+                    "{flag} {}: {err}",
+                    out.display()
+                );
+            }
+        }
+    }
+    // --map-out of the scene's folder would write map.pgm, the scene's image.
+    let o = explore("--map-out", d);
+    assert_fails(
+        &o,
+        2,
+        "--map-out and a file the scene reads name the same file",
+    );
+    // A YAML reached through a link: --map-out of its folder would write its real file.
+    let other = tempfile::tempdir().unwrap();
+    let real = other.path().join("map.yaml");
+    std::fs::write(
+        &real,
+        std::fs::read_to_string(&yaml)
+            .unwrap()
+            .replace("map.pgm", "img.pgm"),
+    )
+    .unwrap();
+    std::fs::copy(&image, other.path().join("img.pgm")).unwrap();
+    let alias = other.path().join("alias.yaml");
+    symlink(&real, &alias).unwrap();
+    let real_before = std::fs::read(&real).unwrap();
+    let o = bin()
+        .args(["explore", "-q", "--force", "--scene"])
+        .arg(&alias)
+        .arg("--map-out")
+        .arg(other.path())
+        .output()
+        .unwrap();
+    assert_fails(&o, 2, "--map-out and --scene name the same file");
+    assert_eq!(std::fs::read(&real).unwrap(), real_before);
+    for (p, b) in inputs.iter().zip(&before) {
+        assert_eq!(&std::fs::read(p).unwrap(), b, "{} changed", p.display());
+    }
+    // A dangling link as an output is refused; its target is not created.
+    let target = d.join("nowhere.mcap");
+    let dangling = d.join("dangling.mcap");
+    symlink(&target, &dangling).unwrap();
+    let o = explore("--log", &dangling);
+    assert_fails(&o, 2, "is a symbolic link");
+    assert!(!target.exists());
+}
+
+/// A glTF buffer is read only from the folder of the `.gltf` (or below it), only from a regular
+/// file, and never past the scene size limit; the refusal quotes nothing read from the file.
+#[test]
+fn gltf_buffers_stay_beside_the_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("scene");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(dir.path().join("x.bin"), [0u8; 64]).unwrap();
+    std::os::unix::fs::symlink(dir.path().join("x.bin"), d.join("link.bin")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.bin")).unwrap();
+    let fifo = Command::new("mkfifo")
+        .arg(d.join("fifo.bin"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
+    for (uri, needle) in [
+        ("../x.bin", "lies outside the folder of the .gltf"),
+        ("/etc/passwd", "lies outside the folder of the .gltf"),
+        ("/dev/zero", "lies outside the folder of the .gltf"),
+        ("%2E%2E/x.bin", "lies outside the folder of the .gltf"),
+        ("link.bin", "lies outside the folder of the .gltf"),
+        ("zero.bin", "lies outside the folder of the .gltf"),
+        ("fifo.bin", "not a regular file"),
+    ] {
+        let doc = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"uri": uri, "byteLength": 64}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                "min": [0, 0, 0], "max": [1, 1, 1]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": [{"mesh": 0}],
+        });
+        let path = d.join("s.gltf");
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        let o = bin().args(["scene", "info"]).arg(&path).output().unwrap();
+        assert_fails(&o, 1, needle);
+    }
+}
+
+/// A node graph whose nodes each list the next twice describes 2^40 instances in a few hundred
+/// bytes: it is refused at the instance bound, not expanded.
+#[test]
+fn gltf_node_graph_expansion_is_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin_data: Vec<u8> = [[0f32, 0., 0.], [1., 0., 0.], [0., 0., 1.]]
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tensorscout::util::base64_encode(&bin_data)
+    );
+    let mut nodes: Vec<serde_json::Value> = (0..40)
+        .map(|i| serde_json::json!({"mesh": 0, "children": [i + 1, i + 1]}))
+        .collect();
+    nodes.push(serde_json::json!({"mesh": 0}));
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "buffers": [{"uri": uri, "byteLength": 36}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [0, 0, 0], "max": [1, 0, 1]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": nodes,
+    });
+    let path = dir.path().join("shared.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let child = bin()
+        .args(["scene", "info"])
+        .arg(&path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let o = wait_with_deadline(child, Duration::from_secs(60));
+    assert_fails(&o, 1, "more than 100000 node instances");
+}
+
+/// A shard whose `results.jsonl` was cut mid-row merges without that row, and says so.
+#[test]
+fn bench_merge_of_a_cut_shard_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let row = failed_row;
+    let a = dir.path().join("a");
+    std::fs::create_dir(&a).unwrap();
+    let whole = format!("{}{}", row(1), row(2));
+    std::fs::write(a.join("results.jsonl"), &whole[..whole.len() - 20]).unwrap();
+    let out = dir.path().join("out");
+    let o = bin()
+        .args(["bench", "merge"])
+        .arg(&a)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("the last row was cut mid-line") && err.contains("a/results.jsonl"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("results.jsonl")).unwrap(),
+        row(1)
+    );
+}
+
+/// A scene without a spawn line whose roomiest floor cell is too tight for the robot (a 6 × 0.4 m
+/// room) is refused, as an explicit spawn there is, instead of a run in collision.
+#[test]
+fn automatic_spawn_must_fit_the_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut mesh = tensorscout::scene::TriMesh::default();
+    for (x0, y0, x1, y1, z1) in [
+        (0.0, 0.0, 6.2, 0.6, 0.0),
+        (0.0, 0.0, 6.2, 0.1, 2.5),
+        (0.0, 0.5, 6.2, 0.6, 2.5),
+        (0.0, 0.0, 0.1, 0.6, 2.5),
+        (6.1, 0.0, 6.2, 0.6, 2.5),
+    ] {
+        mesh.push_box([x0, y0, 0.0], [x1, y1, z1]);
+    }
+    let scene = write(dir.path(), "narrow.obj", &common::obj_text(&mesh, None));
+    let o = bin()
+        .args(["explore", "-q", "--json", "--scene"])
+        .arg(&scene)
+        .args(["--set", "sim.budget_s=5"])
+        .output()
+        .unwrap();
+    assert_fails(&o, 1, "the automatic spawn");
+    assert!(
+        stderr(&o).contains("the robot fits nowhere"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty());
+}
+
+/// Random starts do not use the file's spawn line: one inside a wall is warned about once, and the
+/// starts are drawn over the largest room.
+#[test]
+fn random_start_ignores_a_bad_file_spawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "room.obj", &common::room_obj(Some("0.05 2 0")));
+    let o = bin()
+        .args(["explore", "-q", "--json", "--spawn", "random", "--scene"])
+        .arg(&scene)
+        .args(["--set", "sim.budget_s=5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let warnings = stderr(&o).matches("warning:").count();
+    assert_eq!(warnings, 1, "{}", stderr(&o));
+    assert!(stderr(&o).contains("tensorscout spawn"), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["collisions"], 0, "{r}");
+    // A bench with several seeds: every run starts, none fails.
+    let out = dir.path().join("b");
+    let o = bin()
+        .args([
+            "bench",
+            "-q",
+            "--planners",
+            "greedy",
+            "--seeds",
+            "2",
+            "--scenes",
+        ])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .args(["--set", "sim.budget_s=5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).matches("tensorscout spawn").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
+    let rows = std::fs::read_to_string(out.join("results.jsonl")).unwrap();
+    assert_eq!(rows.lines().count(), 2);
+    assert!(!rows.contains("\"failed\""), "{rows}");
+}
+
+/// `replay --verify` re-runs the config's seed, so a log whose seed metadata was edited is not
+/// called identical: the mismatch is the verdict.
+#[test]
+fn verify_covers_the_seed_it_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "room.obj", &common::room_obj(None));
+    let path = dir.path().join("run.mcap");
+    let o = explore_logged(&scene, &path, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&path).unwrap();
+    let mut log = tensorscout::log::reader::read_log_bytes(&bytes).unwrap();
+    let id = log.identity.as_mut().expect("the fixture has an identity");
+    id.seed = id.seed.wrapping_add(1);
+    let e = tensorscout::log::replay::verify(&log, None).unwrap_err();
+    assert!(e.to_string().contains("seed metadata"), "{e}");
+}
+
+/// Bytes that are not UTF-8 in an OBJ are named by line, not "read error".
+#[test]
+fn non_utf8_obj_names_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.obj");
+    std::fs::write(&p, b"v 0 0 0\nv 1 0 0\nv 0 1 \xff\xfe\nf 1 2 3\n").unwrap();
+    let o = run(&["scene", "info", p.to_str().unwrap()]);
+    assert_fails(&o, 1, "line 3: not UTF-8 text (byte 22)");
 }

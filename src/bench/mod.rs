@@ -296,20 +296,31 @@ pub struct BatchReport {
 
 /// Computes (or reads from the cache) each scene's observable set once before the runs, so that
 /// parallel runs of one scene do not all compute it. A scene that fails to load is left to its runs,
-/// which report the error in their rows.
+/// which report the error in their rows; so is one whose preparation panics (each run then fails on
+/// its own, as a `failed` row, instead of the panic ending the batch).
 fn prepare_scenes(runs: &[RunSpec], cfg: &Config, cache: &ObservableCache) -> Vec<String> {
     let scenes: BTreeSet<&PathBuf> = runs.iter().map(|r| &r.scene_path).collect();
     let mut notes = Vec::new();
     for path in scenes {
-        let Ok(scene) = scene::load(path, &cfg.scene) else {
-            continue;
-        };
-        let mut cfg = cfg.clone();
-        // The set belongs to the scene's own spawn region, which random starts share.
-        cfg.sim.spawn = SpawnMode::Scene;
-        if let Ok(world) = World::with_cache(&scene, &cfg, None, cache) {
-            notes.extend(world.observable_source.warning());
-        }
+        let prepared = catch_unwind(AssertUnwindSafe(|| {
+            let scene = scene::load(path, &cfg.scene).ok()?;
+            let mut own = cfg.clone();
+            // The set belongs to the scene's own spawn region, which random starts share; when
+            // the file's spawn line is refused, random starts use the largest room's (said once).
+            own.sim.spawn = SpawnMode::Scene;
+            let world = World::with_cache(&scene, &own, None, cache)
+                .or_else(|_| World::with_cache(&scene, cfg, None, cache))
+                .ok()?;
+            Some(
+                world
+                    .observable_source
+                    .warning()
+                    .into_iter()
+                    .chain(world.spawn_warning)
+                    .collect::<Vec<_>>(),
+            )
+        }));
+        notes.extend(prepared.ok().flatten().into_iter().flatten());
     }
     notes
 }
@@ -381,6 +392,13 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
     let total = plan_runs(spec).len();
+    let jsonl = spec.out.join(store::RESULTS_JSONL);
+    // A cut last row is dropped by the resume (and its run done again): said, not silent.
+    let cut_row = if spec.resume && jsonl.is_file() {
+        store::cut_row_warning(&jsonl)?
+    } else {
+        None
+    };
     let todo = pending_runs(spec)?;
     let skipped = total - todo.len();
     progress.start(total, skipped);
@@ -391,7 +409,8 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         .num_threads(spec.jobs.max(1))
         .build()
         .map_err(|e| Error::Runtime(format!("cannot start the thread pool: {e}")))?;
-    let notes = pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache));
+    let mut notes: Vec<String> = cut_row.into_iter().collect();
+    notes.extend(pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache)));
     // One pool: the runs and the ray casting inside each run share its threads, so the batch never
     // uses more than `jobs` threads.
     let write_errors: Vec<Error> = pool.install(|| {
@@ -492,8 +511,9 @@ pub fn merge(
     out: &Path,
     reference: Option<PlannerKind>,
     keep_first: bool,
-) -> Result<usize> {
+) -> Result<(usize, Vec<String>)> {
     let mut rows = Vec::new();
+    let mut notes = Vec::new();
     for d in dirs {
         let path = d.join(store::RESULTS_JSONL);
         if !path.is_file() {
@@ -503,6 +523,7 @@ pub fn merge(
                 d.display()
             )));
         }
+        notes.extend(store::cut_row_warning(&path)?);
         rows.extend(store::read_jsonl(&path)?);
     }
     if let Some((k, n)) = conflicts(&rows) {
@@ -516,7 +537,7 @@ pub fn merge(
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let _lock = DirLock::take(out)?;
     // The sort is stable, so the first folder's copy of a run comes first and is the one kept.
-    write_all_from_rows(out, rows, reference)
+    Ok((write_all_from_rows(out, rows, reference)?, notes))
 }
 
 #[cfg(test)]
@@ -627,7 +648,7 @@ mod tests {
             "1 run(s) differ between the folders, e.g. a.obj greedy seed 2 (config c); pass --keep-first to keep the first folder's"
         );
         assert!(!out.exists(), "nothing is written on a conflict");
-        assert_eq!(merge(&[a, b], &out, None, true).unwrap(), 2);
+        assert_eq!(merge(&[a, b], &out, None, true).unwrap(), (2, Vec::new()));
         let rows = store::read_jsonl(&out.join(store::RESULTS_JSONL)).unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[1].error.as_deref(), Some("y"));

@@ -108,6 +108,19 @@ pub fn read_jsonl(path: &Path) -> Result<Vec<BenchRow>> {
     Ok(rows)
 }
 
+/// A warning when the last row of `results.jsonl` at `path` was cut mid-line (an interrupted
+/// write), which [`read_jsonl`] leaves out: that run is missing from what is read.
+pub fn cut_row_warning(path: &Path) -> Result<Option<String>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let tail = bytes.rsplit(|&b| b == b'\n').next().unwrap_or(&[]);
+    Ok((!tail.iter().all(u8::is_ascii_whitespace)).then(|| {
+        format!(
+            "warning: {}: the last row was cut mid-line (an interrupted batch) and is left out; `bench --resume` in that folder runs it again",
+            path.display()
+        )
+    }))
+}
+
 /// Reads `results.jsonl` and rewrites it without a truncated last line, so that appends start on
 /// a fresh line.
 pub fn repair_jsonl(path: &Path) -> Result<Vec<BenchRow>> {

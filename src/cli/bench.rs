@@ -174,7 +174,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
     match args.merge {
         Some(BenchCommand::Merge(m)) => {
             check_out(&m.out, m.force, false)?;
-            let failed = bench::merge(&m.dirs, &m.out, m.reference, m.keep_first)?;
+            let (failed, notes) = bench::merge(&m.dirs, &m.out, m.reference, m.keep_first)?;
+            for line in &notes {
+                note!("{line}");
+            }
             note!(
                 "merged {} folders into {} ({failed} failed runs)",
                 m.dirs.len(),

@@ -2,8 +2,8 @@
 
 use super::live::{self, Pacer, Rate};
 use super::{
-    check_distinct, check_output, emit, note, parse_start, signals, ConfigArgs, ProfileArg,
-    StartArg,
+    check_distinct, check_output, emit, note, parse_start, scene_inputs, signals, ConfigArgs,
+    ProfileArg, StartArg,
 };
 use anyhow::Result;
 use clap::Args;
@@ -31,8 +31,8 @@ pub struct ExploreArgs {
     config: ConfigArgs,
     #[command(flatten)]
     profile: ProfileArg,
-    /// Seed of the run's random stream (overrides the config's `seed`).
-    #[arg(long)]
+    /// Seed of the run's random stream (overrides the config's `seed`; 0 to 2^63 - 1).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(..=i64::MAX as u64))]
     seed: Option<u64>,
     /// Start pose `X,Y[,YAW]` in metres and radians, or `random`: a pose drawn from the seed over
     /// the reachable region, the same for every planner (default: the scene's own, else automatic).
@@ -159,7 +159,11 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         outputs.push(("--map-out", yaml));
         outputs.push(("--map-out", pgm));
     }
-    check_distinct(&outputs, &[("--scene", &args.scene)])?;
+    let config_file = args.config.config.as_deref();
+    let inputs: Vec<(&str, &std::path::Path)> = std::iter::once(("--scene", args.scene.as_path()))
+        .chain(config_file.map(|p| ("--config", p)))
+        .collect();
+    check_distinct(&outputs, &inputs)?;
     let spawn: Option<Pose2> = match args.spawn {
         Some(StartArg::Random) => {
             cfg.sim.spawn = tensorscout::config::SpawnMode::Random;
@@ -173,6 +177,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     // A port in use fails here, before any work.
     let live_server = args.live.as_deref().map(live::serve).transpose()?;
     let scene = scene::load(&args.scene, &cfg.scene)?;
+    check_distinct(&outputs, &scene_inputs(&scene, &args.config))?;
     for w in &scene.warnings {
         note!("warning: {w}");
     }
@@ -181,6 +186,9 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     let interactive = !args.quiet && std::io::stderr().is_terminal();
     let cache = ObservableCache::user().announcing(interactive);
     let world = World::with_cache(&scene, &cfg, spawn, &cache)?;
+    if let Some(w) = &world.spawn_warning {
+        note!("{w}");
+    }
     if let Some(w) = world.observable_source.warning() {
         note!("{w}");
     }

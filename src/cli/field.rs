@@ -1,6 +1,6 @@
 //! `tensorscout field`: the tensor field of a scene and its topology, as if fully observed.
 
-use super::{check_distinct, check_output, emit, note, ConfigArgs};
+use super::{check_distinct, check_output, emit, note, scene_inputs, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
@@ -52,6 +52,9 @@ pub fn run(args: FieldArgs) -> Result<()> {
         check_distinct(&[("--png", png)], &[("--scene", &args.scene)])?;
     }
     let scene = scene::load(&args.scene, &cfg.scene)?;
+    if let Some(png) = &args.png {
+        check_distinct(&[("--png", png)], &scene_inputs(&scene, &args.config))?;
+    }
     for w in &scene.warnings {
         note!("warning: {w}");
     }

@@ -113,7 +113,7 @@ impl ConfigArgs {
     }
 }
 
-/// SIGINT and SIGTERM: exit 130 and 143 everywhere. By default a signal ends the process at once
+/// SIGHUP, SIGINT and SIGTERM: exit 129, 130 and 143 everywhere. By default a signal ends the process at once
 /// (a bench's finished rows are already flushed; nothing else is half-written). Inside a
 /// [`signals::Cooperative`] section (an `explore` run) the first signal only asks the run to stop,
 /// so that its result is printed and its log finished; a second signal ends the process at once.
@@ -124,7 +124,9 @@ pub mod signals {
     static STOP: AtomicBool = AtomicBool::new(false);
     static RECEIVED: AtomicUsize = AtomicUsize::new(0);
 
-    const SIGNALS: [(i32, i32); 2] = [
+    /// SIGHUP (the terminal closed) ends a run as SIGTERM does: its result and log are kept.
+    const SIGNALS: [(i32, i32); 3] = [
+        (signal_hook::consts::SIGHUP, 129),
         (signal_hook::consts::SIGINT, 130),
         (signal_hook::consts::SIGTERM, 143),
     ];
@@ -146,7 +148,7 @@ pub mod signals {
         STOP.load(Ordering::SeqCst)
     }
 
-    /// 130 after SIGINT, 143 after SIGTERM, `None` when no signal arrived.
+    /// 129 after SIGHUP, 130 after SIGINT, 143 after SIGTERM, `None` when no signal arrived.
     pub fn exit_code() -> Option<u8> {
         let sig = RECEIVED.load(Ordering::SeqCst) as i32;
         SIGNALS
@@ -348,6 +350,14 @@ fn check_output(path: &Path, force: bool, extension: Option<&str>) -> tensorscou
             path.display()
         )));
     }
+    // A link given as an output would be followed and its target replaced or created, which the
+    // user did not name: the output must be the file itself.
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        return Err(Error::usage(format!(
+            "{}: is a symbolic link; outputs are never written through links, so name the file itself",
+            path.display()
+        )));
+    }
     if path.exists() && !force {
         return Err(Error::io(
             path,
@@ -386,8 +396,19 @@ fn probe_writable(dir: &Path) -> std::io::Result<()> {
     Err(std::io::Error::other("no free probe file name"))
 }
 
-/// The same file, for two paths that may not exist yet: the canonical folder and the file name.
+/// The identity of an existing file (device and inode, through links), `None` if there is none.
+fn file_id(p: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
+}
+
+/// The same file: for two that exist, the same device and inode (so hard links, symbolic links and
+/// every spelling of a path agree); else, for a path that does not exist yet, the canonical folder
+/// and the file name.
 fn same_file(a: &Path, b: &Path) -> bool {
+    if let (Some(x), Some(y)) = (file_id(a), file_id(b)) {
+        return x == y;
+    }
     let key = |p: &Path| {
         let parent = p
             .parent()
@@ -399,6 +420,23 @@ fn same_file(a: &Path, b: &Path) -> bool {
         )
     };
     key(a) == key(b)
+}
+
+/// The files an output may not replace once the scene is loaded: every file it was read from and
+/// the config file, as `(what, path)` pairs for [`check_distinct`].
+fn scene_inputs<'a>(
+    scene: &'a tensorscout::scene::Scene,
+    config: &'a ConfigArgs,
+) -> Vec<(&'a str, &'a Path)> {
+    let named = scene
+        .inputs
+        .iter()
+        .skip(1)
+        .map(|p| ("a file the scene reads", p.as_path()));
+    std::iter::once(("the scene", scene.path.as_path()))
+        .chain(named)
+        .chain(config.config.as_deref().map(|p| ("--config", p)))
+        .collect()
 }
 
 /// Refuses two outputs on one path, or an output on an input (`(flag, path)` pairs).

@@ -1,6 +1,6 @@
 //! `tensorscout scene generate|import|info|render`.
 
-use super::{check_distinct, check_output, emit, note, parse_spawn, ConfigArgs};
+use super::{check_distinct, check_output, emit, note, parse_spawn, scene_inputs, ConfigArgs};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -139,6 +139,7 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             check_distinct(&[("-o", &output)], &[("the input", &input)])?;
             let cfg = config.load()?;
             let scene = scene::load(&input, &cfg.scene)?;
+            check_distinct(&[("-o", &output)], &scene_inputs(&scene, &config))?;
             let gt = eval::build_ground_truth(&scene, None, &cfg)?;
             warn_scene(&scene, &gt);
             let comments = vec![format!(
@@ -174,7 +175,8 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
         } => {
             check_output(&output, force, Some("png"))?;
             check_distinct(&[("-o", &output)], &[("the scene", &scene.scene)])?;
-            let (_, world) = scene.load()?;
+            let (loaded, world) = scene.load()?;
+            check_distinct(&[("-o", &output)], &scene_inputs(&loaded, &scene.config))?;
             render::draw_ground_truth(&world.ground_truth, Some(&world.observable))
                 .save(&output)?;
             Ok(())

@@ -101,13 +101,39 @@ pub fn build_ground_truth(
     cfg: &Config,
 ) -> Result<GroundTruth> {
     GroundTruth::build(&scene.mesh, spawn.or(scene.spawn), cfg).map_err(|e| match (spawn, e) {
-        (None, Error::Usage(msg)) if scene.spawn.is_some() => Error::usage(format!(
-            "{}: the file's `{SPAWN_MARKER}` line: {msg}",
-            scene.path.display()
-        )),
+        (None, Error::Usage(msg)) if scene.spawn.is_some() && msg.starts_with("spawn ") => {
+            Error::usage(format!(
+                "{}: the file's `{SPAWN_MARKER}` line: {msg}",
+                scene.path.display()
+            ))
+        }
         (_, e) => e,
     })
 }
+/// [`build_ground_truth`] for a run's start: a random start (`sim.spawn = "random"`) does not use
+/// the file's spawn line, so a line the ground truth refuses leaves the region to the automatic
+/// spawn (the largest enclosed room) instead of failing the run; the warning says so.
+pub fn build_ground_truth_for_start(
+    scene: &Scene,
+    spawn: Option<Pose2>,
+    cfg: &Config,
+) -> Result<(GroundTruth, Option<String>)> {
+    match build_ground_truth(scene, spawn, cfg) {
+        Err(Error::Usage(msg))
+            if cfg.sim.spawn == crate::config::SpawnMode::Random
+                && spawn.is_none()
+                && scene.spawn.is_some()
+                && msg.contains(SPAWN_MARKER) =>
+        {
+            let gt = GroundTruth::build(&scene.mesh, None, cfg)?;
+            let warning =
+                format!("warning: {msg}; random starts are drawn from the largest room instead");
+            Ok((gt, Some(warning)))
+        }
+        other => other.map(|gt| (gt, None)),
+    }
+}
+
 /// What `scene info` prints.
 #[derive(Clone, Debug, Serialize)]
 pub struct SceneInfo {

@@ -8,7 +8,9 @@ pub(crate) mod metrics;
 pub mod observable;
 pub(crate) mod reachable;
 
-pub use ground_truth::{build_ground_truth, info, GroundTruth, SceneInfo};
+pub use ground_truth::{
+    build_ground_truth, build_ground_truth_for_start, info, GroundTruth, SceneInfo,
+};
 pub use metrics::{
     frontiers_left, surface_coverage, unseen_patches, ExploredVolume, FrontierGroup, FrontiersLeft,
     UnseenPatch, FRONTIER_GROUPS, UNSEEN_PATCHES,

@@ -306,6 +306,14 @@ pub fn verify(log: &LogContents, log_path: Option<&Path>) -> Result<Verification
     let cfg: Config = toml::from_str(&id.config_toml)
         .map_err(|e| Error::Runtime(format!("the log's config does not parse: {e}")))?;
     cfg.validate()?;
+    // The run is repeated from the config's seed; the seed the log reports must be that one, or a
+    // verdict of `identical` would vouch for a seed that was never run.
+    if id.seed != cfg.seed {
+        return Err(Error::Runtime(format!(
+            "the log's seed metadata ({}) differs from the seed its recorded config holds ({}): the log was edited",
+            id.seed, cfg.seed
+        )));
+    }
     let planner = <PlannerKind as clap::ValueEnum>::from_str(&id.planner, true)
         .map_err(|_| Error::Runtime(format!("log names an unknown planner `{}`", id.planner)))?;
     let scene = find_scene(id, &cfg, log_path)?;

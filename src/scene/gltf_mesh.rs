@@ -12,11 +12,21 @@
 use super::TriMesh;
 use crate::{Error, Result};
 use nalgebra::{Matrix4, Point3};
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
-/// The mesh of `path` (bytes already read) in the z-up frame, and every byte the content hash
-/// covers (the file, then each external buffer in order).
-pub fn parse(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Vec<u8>)> {
+/// Most node instances a glTF scene may expand to (each node once per path from a root).
+pub const MAX_NODE_INSTANCES: usize = 100_000;
+
+/// A glTF scene read: the mesh in the z-up frame, every byte the content hash covers (the file, then
+/// each external buffer in order) and the buffer files read.
+pub struct Parsed {
+    pub mesh: TriMesh,
+    pub hash_bytes: Vec<u8>,
+    pub buffer_files: Vec<PathBuf>,
+}
+
+/// The mesh of `path` (bytes already read); see [`Parsed`].
+pub fn parse(path: &Path, bytes: &[u8]) -> Result<Parsed> {
     let err = |m: String| Error::scene(path, m);
     // The gltf crate subtracts the 12-byte header from the declared GLB length unchecked (a panic
     // in a build with overflow checks): refuse a length that cannot hold the header first.
@@ -41,14 +51,16 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Vec<u8>)> {
     }
     let mut hash_bytes = bytes.to_vec();
     let mut buffers = Vec::new();
+    let mut buffer_files = Vec::new();
     for buffer in gltf.buffers() {
         let data = match buffer.source() {
             ::gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
                 err("glTF buffer refers to a GLB binary chunk that is missing".into())
             })?,
             ::gltf::buffer::Source::Uri(uri) => {
-                let data = load_uri(path, uri)?;
+                let (data, file) = load_uri(path, uri)?;
                 hash_bytes.extend_from_slice(&data);
+                buffer_files.extend(file);
                 data
             }
         };
@@ -82,7 +94,22 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Vec<u8>)> {
         .into_iter()
         .map(|n| (n, Matrix4::identity(), 0))
         .collect();
+    let mut instances = 0usize;
     while let Some((node, parent, depth)) = stack.pop() {
+        // Nodes may share children, so a small file can describe 2^40 instances: the expansion
+        // stops at a bound on instances and on triangles instead of running out of memory.
+        instances += 1;
+        if instances > MAX_NODE_INSTANCES {
+            return Err(err(format!(
+                "glTF node graph expands to more than {MAX_NODE_INSTANCES} node instances (children shared by many parents?)"
+            )));
+        }
+        if mesh.triangles.len() > super::MAX_TRIANGLES {
+            return Err(err(format!(
+                "glTF scene expands to more than {} triangles",
+                super::MAX_TRIANGLES
+            )));
+        }
         if depth > 1000 {
             return Err(err(
                 "glTF node hierarchy is deeper than 1000 (a cycle?)".into()
@@ -109,7 +136,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Vec<u8>)> {
     for v in &mut mesh.vertices {
         *v = Point3::new(v.x, -v.z, v.y);
     }
-    Ok((mesh, hash_bytes))
+    Ok(Parsed {
+        mesh,
+        hash_bytes,
+        buffer_files,
+    })
 }
 
 fn add_mesh(
@@ -230,11 +261,18 @@ fn precheck_accessor_refs(bytes: &[u8]) -> std::result::Result<(), String> {
     // The first JSON value, whatever follows it (padding); bytes that are not UTF-8 become U+FFFD,
     // since the crate skips them inside keys it ignores.
     let text = String::from_utf8_lossy(json);
-    let Some(Ok(doc)) = serde_json::Deserializer::from_str(&text)
+    let doc = match serde_json::Deserializer::from_str(&text)
         .into_iter::<serde_json::Value>()
         .next()
-    else {
-        return Ok(());
+    {
+        Some(Ok(doc)) => doc,
+        // The crate skips keys it does not know without reading their values whole (a number
+        // beyond f64 there passes), so a document this check cannot read is refused here rather
+        // than handed over unchecked.
+        Some(Err(e)) if e.is_syntax() && e.to_string().contains("number out of range") => {
+            return Err(format!("cannot parse glTF: {e}"));
+        }
+        _ => return Ok(()),
     };
     let accessors = doc["accessors"].as_array().map_or(0, Vec::len);
     let check = |v: &serde_json::Value, what: &str| match v.as_u64() {
@@ -318,8 +356,11 @@ fn check_accessor(
     Ok(())
 }
 
-/// The bytes of a buffer URI: a base64 `data:` URI, or a file relative to the `.gltf`.
-fn load_uri(path: &Path, uri: &str) -> Result<Vec<u8>> {
+/// The bytes of a buffer URI: a base64 `data:` URI, or a file in the folder of the `.gltf` (or a
+/// folder below it), with the rules of a scene file: a regular file of at most
+/// [`super::MAX_SCENE_FILE_BYTES`]. An absolute path, a `..` step or a link leading out of the folder
+/// is refused before anything is read. Returns the bytes and the file read, if any.
+fn load_uri(path: &Path, uri: &str) -> Result<(Vec<u8>, Option<PathBuf>)> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, data) = rest.split_once(";base64,").ok_or_else(|| {
             Error::scene(
@@ -327,20 +368,47 @@ fn load_uri(path: &Path, uri: &str) -> Result<Vec<u8>> {
                 "glTF buffer data URI is not base64 (`;base64,` missing)",
             )
         })?;
-        return crate::util::base64_decode(data)
-            .ok_or_else(|| Error::scene(path, "glTF buffer data URI holds invalid base64"));
+        let bytes = crate::util::base64_decode(data)
+            .ok_or_else(|| Error::scene(path, "glTF buffer data URI holds invalid base64"))?;
+        return Ok((bytes, None));
     }
+    let shown = uri.escape_debug();
     if uri.contains("://") {
         return Err(Error::scene(
             path,
-            format!("glTF buffer `{uri}` is remote; only files beside the .gltf are read"),
+            format!("glTF buffer `{shown}` is remote; only files beside the .gltf are read"),
         ));
     }
-    let file = path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(percent_decode(uri));
-    std::fs::read(&file).map_err(|e| Error::io(&file, e))
+    let outside = || {
+        Error::scene(
+            path,
+            format!("glTF buffer `{shown}` lies outside the folder of the .gltf; only files beside it are read"),
+        )
+    };
+    let relative = PathBuf::from(percent_decode(uri));
+    if !relative
+        .components()
+        .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(outside());
+    }
+    let folder = path.parent().unwrap_or(Path::new("."));
+    let file = folder.join(&relative);
+    // A link beside the .gltf may point anywhere: the file it resolves to must lie in the folder too.
+    if let (Ok(real_folder), Ok(real_file)) = (
+        std::fs::canonicalize(if folder.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            folder
+        }),
+        std::fs::canonicalize(&file),
+    ) {
+        if !real_file.starts_with(&real_folder) {
+            return Err(outside());
+        }
+    }
+    let bytes = crate::util::read_regular_file(&file, super::MAX_SCENE_FILE_BYTES)?;
+    Ok((bytes, Some(file)))
 }
 
 /// Decodes `%XX` escapes of a URI path (glTF URIs are RFC 3986; spaces arrive as `%20`).

@@ -65,6 +65,15 @@ impl SceneTruth {
                 grid.nx, grid.ny, grid.nz
             )));
         }
+        // The voxelisation tests every triangle against every voxel of its bounding box: many large
+        // overlapping faces (one huge polygon fanned out, a face repeated thousands of times) would
+        // cost minutes and gigabytes. The shipped scenes and real plans span under 250,000.
+        let span = triangle_voxel_span(mesh, &grid);
+        if span > MAX_TRIANGLE_VOXELS {
+            return Err(Error::usage(format!(
+                "the scene's triangles span {span} voxels in all (each triangle's bounding box, overlaps counted again), more than {MAX_TRIANGLE_VOXELS}: too many large overlapping faces, or raise map.voxel_m"
+            )));
+        }
         let triangles = VoxelTriangles::build(mesh, &grid);
         let mut occupied = vec![false; grid.voxels()];
         for &v in &triangles.voxels {
@@ -86,48 +95,74 @@ impl SceneTruth {
             })
             .collect();
 
+        // The robot must fit at its start, wherever the start came from: clear of obstacle columns
+        // by its radius between cell centres, and its disc exactly clear of every triangle, with
+        // the collision test's geometry (a converted plan's start 0.24 m from a wall face, and an
+        // automatic spawn in a 0.4 m wide room, both started in collision).
+        let fits = |s: Pose2, what: &str| -> Result<()> {
+            // Shown to the micrometre: a cell centre computed as 0.3500000000000001 reads 0.35.
+            let (x, y) = ((s.x * 1e6).round() / 1e6, (s.y * 1e6).round() / 1e6);
+            let cell = grid
+                .cell_of(s.position())
+                .expect("the spawn lies in the grid");
+            let c = clearance[grid.index(cell)];
+            if (c as f64) < cfg.robot.radius_m {
+                return Err(Error::usage(format!(
+                    "{what} ({x}, {y}) is inside an obstacle or closer than the robot radius ({} m) to one (clearance {:.2} m)",
+                    cfg.robot.radius_m, c
+                )));
+            }
+            let (z_min, z_max) = (
+                cfg.map.band_min_m,
+                cfg.robot.height_m.min(cfg.map.band_max_m),
+            );
+            let touches = mesh.triangles.iter().any(|t| {
+                let tri = t.map(|k| {
+                    let v = mesh.vertices[k as usize];
+                    [v.x as f64, v.y as f64, v.z as f64]
+                });
+                triangle_meets_cylinder(tri, s.x, s.y, cfg.robot.radius_m, z_min, z_max)
+            });
+            if touches {
+                return Err(Error::usage(format!(
+                    "{what} ({x}, {y}) puts the robot's disc (radius {} m, {z_min}–{z_max} m high) into the scene: move it farther from the nearest surface",
+                    cfg.robot.radius_m
+                )));
+            }
+            Ok(())
+        };
         let spawn = match spawn {
             Some(s) => {
                 let inside_mesh = s.x >= min.x && s.x <= max.x && s.y >= min.y && s.y <= max.y;
-                let cell = grid
+                if grid
                     .cell_of(s.position())
                     .filter(|_| inside_mesh && s.x.is_finite() && s.y.is_finite())
-                    .ok_or_else(|| {
-                        Error::usage(format!(
-                            "spawn ({}, {}) is outside the scene bounds [{:.2}, {:.2}] × [{:.2}, {:.2}]",
-                            s.x, s.y, min.x, max.x, min.y, max.y
-                        ))
-                    })?;
-                let c = clearance[grid.index(cell)];
-                if (c as f64) < cfg.robot.radius_m {
+                    .is_none()
+                {
                     return Err(Error::usage(format!(
-                        "spawn ({}, {}) is inside an obstacle or closer than the robot radius ({} m) to one (clearance {:.2} m)",
-                        s.x, s.y, cfg.robot.radius_m, c
+                        "spawn ({}, {}) is outside the scene bounds [{:.2}, {:.2}] × [{:.2}, {:.2}]",
+                        crate::util::short_number(s.x),
+                        crate::util::short_number(s.y),
+                        min.x,
+                        max.x,
+                        min.y,
+                        max.y
                     )));
                 }
-                // The clearance above is between cell centres; the robot's disc at the spawn itself
-                // is tested exactly, with the collision test's geometry, so that no run starts in
-                // collision (a converted plan's start 0.24 m from a wall face did).
-                let (z_min, z_max) = (
-                    cfg.map.band_min_m,
-                    cfg.robot.height_m.min(cfg.map.band_max_m),
-                );
-                let touches = mesh.triangles.iter().any(|t| {
-                    let tri = t.map(|k| {
-                        let v = mesh.vertices[k as usize];
-                        [v.x as f64, v.y as f64, v.z as f64]
-                    });
-                    triangle_meets_cylinder(tri, s.x, s.y, cfg.robot.radius_m, z_min, z_max)
-                });
-                if touches {
-                    return Err(Error::usage(format!(
-                        "spawn ({}, {}) puts the robot's disc (radius {} m, {z_min}–{z_max} m high) into the scene: move it farther from the nearest surface",
-                        s.x, s.y, cfg.robot.radius_m
-                    )));
-                }
+                fits(s, "spawn")?;
                 s
             }
-            None => auto_spawn(&grid, &obstacle, &clearance)?,
+            None => {
+                let s = auto_spawn(&grid, &obstacle, &clearance)?;
+                // The automatic spawn is the floor cell farthest from obstacles in the largest
+                // enclosed region: if the robot does not fit there, it fits nowhere in that region.
+                fits(s, "the automatic spawn").map_err(|e| {
+                    Error::Runtime(format!(
+                        "{e} (the file has no spawn line, and this floor cell is the farthest from obstacles: the robot fits nowhere in the scene's largest room)"
+                    ))
+                })?;
+                s
+            }
         };
 
         let start = grid.index(
@@ -243,6 +278,43 @@ pub struct VoxelTriangles {
     /// `triangles[starts[k]..starts[k + 1]]` overlap `voxels[k]`.
     starts: Vec<u32>,
     triangles: Vec<u32>,
+}
+
+/// Most voxel tests the voxelisation may make: the sum over triangles of the voxels in each one's
+/// bounding box (see [`triangle_voxel_span`]).
+pub const MAX_TRIANGLE_VOXELS: u64 = 100_000_000;
+
+/// The voxels of `grid` in the bounding boxes of `mesh`'s triangles, summed over the triangles:
+/// the work of [`VoxelTriangles::build`].
+pub fn triangle_voxel_span(mesh: &TriMesh, grid: &GridSpec) -> u64 {
+    let count = |lo: f64, hi: f64, origin: f64, n: usize| -> u64 {
+        let a = ((lo - origin) / grid.res).floor().max(0.0);
+        let b = ((hi - origin) / grid.res).floor().min(n as f64 - 1.0);
+        if a <= b {
+            (b - a) as u64 + 1
+        } else {
+            0
+        }
+    };
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| mesh.vertices[i as usize]);
+            let lo = |k: usize| {
+                p.iter()
+                    .map(|v| f64::from(v[k]))
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let hi = |k: usize| {
+                p.iter()
+                    .map(|v| f64::from(v[k]))
+                    .fold(f64::NEG_INFINITY, f64::max)
+            };
+            count(lo(0), hi(0), grid.origin_x, grid.nx)
+                * count(lo(1), hi(1), grid.origin_y, grid.ny)
+                * count(lo(2), hi(2), 0.0, grid.nz)
+        })
+        .fold(0u64, u64::saturating_add)
 }
 
 impl VoxelTriangles {

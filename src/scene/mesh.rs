@@ -86,3 +86,104 @@ impl TriMesh {
         }
     }
 }
+
+/// Most vertices of a non-convex face: ear clipping costs up to the cube of the count.
+pub const MAX_CONCAVE_FACE_VERTICES: usize = 1000;
+
+/// Appends the triangles of the planar polygon `face` (indices into `vertices`, in order) to `out`.
+/// A convex face (or a degenerate one, of no area) is fanned from its first vertex, as OBJ and PLY
+/// loaders do; a non-convex one is ear-clipped, so that it does not cover its notches. Fails, with
+/// the reason, for a non-convex face of more than [`MAX_CONCAVE_FACE_VERTICES`] vertices or one
+/// whose edges cross.
+pub fn triangulate_face(
+    vertices: &[Point3<f32>],
+    face: &[u32],
+    out: &mut Vec<[u32; 3]>,
+) -> Result<(), String> {
+    let n = face.len();
+    let fan = |out: &mut Vec<[u32; 3]>| {
+        for k in 1..n.saturating_sub(1) {
+            out.push([face[0], face[k], face[k + 1]]);
+        }
+    };
+    if n <= 3 {
+        fan(out);
+        return Ok(());
+    }
+    let p3: Vec<[f64; 3]> = face
+        .iter()
+        .map(|&i| {
+            let v = vertices[i as usize];
+            [f64::from(v.x), f64::from(v.y), f64::from(v.z)]
+        })
+        .collect();
+    // Newell's normal; the polygon is projected on the plane of its two other axes.
+    let mut normal = [0.0f64; 3];
+    for i in 0..n {
+        let (a, b) = (p3[i], p3[(i + 1) % n]);
+        normal[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        normal[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        normal[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    let drop = (0..3)
+        .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()))
+        .unwrap_or(2);
+    let (u, v) = ((drop + 1) % 3, (drop + 2) % 3);
+    let p: Vec<[f64; 2]> = p3.iter().map(|q| [q[u], q[v]]).collect();
+    // Orientation: +1 counter-clockwise in the projection.
+    let sign = if normal[drop] == 0.0 {
+        0.0
+    } else {
+        normal[drop].signum()
+    };
+    let scale = p
+        .iter()
+        .flat_map(|q| q.iter())
+        .fold(0.0f64, |m, x| m.max(x.abs()))
+        .max(1e-9);
+    let eps = 1e-12 * scale * scale;
+    let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        sign * ((b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]))
+    };
+    let convex = sign == 0.0 || (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= -eps);
+    if convex {
+        fan(out);
+        return Ok(());
+    }
+    if n > MAX_CONCAVE_FACE_VERTICES {
+        return Err(format!(
+            "a non-convex face of {n} vertices (at most {MAX_CONCAVE_FACE_VERTICES} are triangulated)"
+        ));
+    }
+    // Ear clipping: a convex corner whose triangle holds no other remaining vertex is cut off.
+    let inside = |q: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        cross(a, b, q) >= -eps && cross(b, c, q) >= -eps && cross(c, a, q) >= -eps
+    };
+    let mut left: Vec<usize> = (0..n).collect();
+    while left.len() > 3 {
+        let m = left.len();
+        let ear = (0..m).find(|&k| {
+            let (a, b, c) = (left[(k + m - 1) % m], left[k], left[(k + 1) % m]);
+            cross(p[a], p[b], p[c]) > eps
+                && left.iter().all(|&j| {
+                    j == a
+                        || j == b
+                        || j == c
+                        || p[j] == p[a]
+                        || p[j] == p[b]
+                        || p[j] == p[c]
+                        || !inside(p[j], p[a], p[b], p[c])
+                })
+        });
+        let Some(k) = ear else {
+            return Err(format!(
+                "a non-convex face of {n} vertices whose edges cross (not a simple polygon)"
+            ));
+        };
+        let (a, b, c) = (left[(k + m - 1) % m], left[k], left[(k + 1) % m]);
+        out.push([face[a], face[b], face[c]]);
+        left.remove(k);
+    }
+    out.push([face[left[0]], face[left[1]], face[left[2]]]);
+    Ok(())
+}

@@ -38,6 +38,9 @@ pub struct Scene {
     pub source: String,
     /// Things accepted but worth a one-line warning (e.g. OBJ faces with fewer than 3 vertices).
     pub warnings: Vec<String>,
+    /// Every file the scene was read from: the scene file, then what it names (a ROS map's image,
+    /// a glTF's buffer files). No output may be written over one of them.
+    pub inputs: Vec<PathBuf>,
 }
 
 /// The marker of a spawn line: `# tensorscout spawn X Y YAW` in OBJ, `comment tensorscout spawn …`
@@ -65,6 +68,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         )));
     };
     let mut warnings = Vec::new();
+    let mut inputs = vec![path.to_path_buf()];
     let (mut mesh, spawn, hash_bytes, source) = match ext.as_str() {
         "obj" | "ply" => {
             let bytes = read_nonempty(path)?;
@@ -84,11 +88,13 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         "gltf" | "glb" => {
             let bytes = read_nonempty(path)?;
             // glTF is y-up by its specification: always converted, whatever `scene.y_up` says.
-            let (mesh, hash_bytes) = gltf_mesh::parse(path, &bytes)?;
-            (mesh, None, hash_bytes, ext.clone())
+            let parsed = gltf_mesh::parse(path, &bytes)?;
+            inputs = parsed.buffer_files;
+            (parsed.mesh, None, parsed.hash_bytes, ext.clone())
         }
         "yaml" | "yml" => {
             let imported = rosmap::import(path, cfg)?;
+            inputs.push(imported.image);
             (imported.mesh, None, imported.hash_bytes, "ros-map".into())
         }
         "json" => {
@@ -117,6 +123,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
         floor_z,
         source,
         warnings,
+        inputs,
     })
 }
 
@@ -144,6 +151,15 @@ pub fn open_region_warning(scene: &Scene, gt: &SceneTruth) -> Option<String> {
 /// coordinates or normals is an error naming its line (`tobj` would overflow computing the offset
 /// of a huge one), and faces with fewer than 3 vertices, which no loader can use, give a warning.
 fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
+    // OBJ is text: bytes that are not UTF-8 (a binary file, another encoding) are named by line.
+    if let Err(e) = std::str::from_utf8(bytes) {
+        let at = e.valid_up_to();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        return Err(Error::scene(
+            path,
+            format!("line {line}: not UTF-8 text (byte {at}); an OBJ file is text, is this a binary file?"),
+        ));
+    }
     let text = String::from_utf8_lossy(bytes);
     let mut counts = [0i64; 3];
     for line in text.lines() {
@@ -201,6 +217,10 @@ fn scan_obj(path: &Path, bytes: &[u8]) -> Result<Option<String>> {
 /// on what a mistaken path (a device, a huge unrelated file) can make the loader read.
 pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 30;
 
+/// Most triangles a scene may hold (about 1 GB with its vertices and ray-casting tree); glTF node
+/// graphs, which can repeat a mesh many times, are expanded only up to it.
+pub const MAX_TRIANGLES: usize = 10_000_000;
+
 /// 16 hex digits of FNV-1a 64 over `bytes`.
 pub fn content_hash(bytes: &[u8]) -> String {
     format!("{:016x}", crate::util::fnv1a64(bytes))
@@ -227,6 +247,15 @@ fn rotate_y_up_to_z_up(mesh: &mut TriMesh) {
 fn validate(path: &Path, mesh: &TriMesh, cfg: &SceneConfig) -> Result<f64> {
     if mesh.triangles.is_empty() {
         return Err(Error::scene(path, "mesh has no triangles"));
+    }
+    if mesh.triangles.len() > MAX_TRIANGLES {
+        return Err(Error::scene(
+            path,
+            format!(
+                "mesh has {} triangles, more than the {MAX_TRIANGLES} a scene may hold",
+                mesh.triangles.len()
+            ),
+        ));
     }
     if let Some(i) = mesh
         .vertices
@@ -341,7 +370,8 @@ fn parse_spawn(path: &Path, rest: &str) -> Result<Pose2> {
 fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
     let opts = tobj::LoadOptions {
         single_index: false,
-        triangulate: true,
+        // Faces are triangulated below: tobj fans every polygon, which fills a concave one's notch.
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -351,6 +381,7 @@ fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
     })
     .map_err(|e| Error::scene(path, format!("cannot parse OBJ: {e}")))?;
     let mut mesh = TriMesh::default();
+    let mut faces = 0usize;
     for model in &models {
         let m = &model.mesh;
         let offset = mesh.vertices.len() as u32;
@@ -359,11 +390,22 @@ fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
                 .chunks_exact(3)
                 .map(|p| Point3::new(p[0], p[1], p[2])),
         );
-        mesh.triangles.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
-        );
+        let mut start = 0;
+        let arities: Box<dyn Iterator<Item = usize>> = if m.face_arities.is_empty() {
+            Box::new(std::iter::repeat_n(3, m.indices.len() / 3))
+        } else {
+            Box::new(m.face_arities.iter().map(|&a| a as usize))
+        };
+        for arity in arities {
+            let face: Vec<u32> = m.indices[start..start + arity]
+                .iter()
+                .map(|&i| i + offset)
+                .collect();
+            start += arity;
+            faces += 1;
+            mesh::triangulate_face(&mesh.vertices, &face, &mut mesh.triangles)
+                .map_err(|why| Error::scene(path, format!("face {faces} is {why}")))?;
+        }
     }
     let mut spawn = None;
     for line in String::from_utf8_lossy(bytes).lines() {
@@ -451,11 +493,9 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<(TriMesh, Option<Pose2>)> {
                 format!("PLY face {f} uses vertex index {bad}, out of range for {n} vertices"),
             ));
         }
-        // Fan triangulation of convex polygons (PLY faces are planar polygons in practice).
-        for k in 1..idx.len().saturating_sub(1) {
-            mesh.triangles
-                .push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
-        }
+        let face: Vec<u32> = idx.iter().map(|&i| i as u32).collect();
+        mesh::triangulate_face(&mesh.vertices, &face, &mut mesh.triangles)
+            .map_err(|why| Error::scene(path, format!("PLY face {f} is {why}")))?;
     }
     let mut spawn = None;
     for c in &ply.header.comments {

@@ -41,6 +41,8 @@ pub struct ImportedMap {
     pub hash_bytes: Vec<u8>,
     /// Cells of the cropped grid that are free floor.
     pub free_cells: usize,
+    /// The map image the yaml names.
+    pub image: PathBuf,
 }
 
 /// Imports the map described by the `.yaml` at `path`.
@@ -59,6 +61,7 @@ pub fn import(path: &Path, cfg: &SceneConfig) -> Result<ImportedMap> {
         mesh,
         hash_bytes,
         free_cells,
+        image: image_path,
     })
 }
 

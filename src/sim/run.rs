@@ -84,6 +84,8 @@ pub struct World {
     pub observable: Arc<ObservableSet>,
     /// Where the observable set came from (cache hit, computed, repaired).
     pub observable_source: CacheOutcome,
+    /// A file spawn line a random start could not use (see `eval::build_ground_truth_for_start`).
+    pub spawn_warning: Option<String>,
 }
 
 /// Stream of the run's ChaCha generator that draws a random start: separate from every planner's
@@ -112,7 +114,8 @@ impl World {
                 "an explicit start pose and `sim.spawn = \"random\"` exclude each other",
             ));
         }
-        let ground_truth = crate::eval::build_ground_truth(scene, spawn, cfg)?;
+        let (ground_truth, spawn_warning) =
+            crate::eval::build_ground_truth_for_start(scene, spawn, cfg)?;
         let bvh = MeshBvh::new(&scene.mesh)?;
         let (observable, observable_source) = cache.get_or_compute(
             scene,
@@ -135,6 +138,7 @@ impl World {
             raster,
             observable: Arc::new(observable),
             observable_source,
+            spawn_warning,
         })
     }
 }
@@ -739,6 +743,7 @@ mod tests {
             floor_z: 0.0,
             source: "obj".into(),
             warnings: Vec::new(),
+            inputs: Vec::new(),
         }
     }
 

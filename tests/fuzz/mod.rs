@@ -8,7 +8,7 @@
 //! deletions, duplicated ranges, splices with another seed input, and replacement of numeric fields
 //! (text) or little-endian integers (binary) by boundary values.
 //!
-//! Adding a format (glTF, when its loader lands): add a variant to [`Format`], its name in
+//! Adding a format: add a variant to [`Format`], its name in
 //! [`Format::ALL`], seed inputs in [`seeds`] and how one case runs in [`run_case`]; for a scene
 //! format that is one `load_scene(dir, "gltf", bytes)` call.
 
@@ -36,10 +36,13 @@ pub enum Format {
     Mcap,
     /// A binary glTF (GLB) mesh.
     Glb,
+    /// A `.gltf` with an external buffer: hostile buffer URIs (outside the folder, devices, links)
+    /// and node graphs (shared children, cycles, deep chains, bad indices), then text mutations.
+    Gltf,
 }
 
 impl Format {
-    pub const ALL: [Format; 9] = [
+    pub const ALL: [Format; 10] = [
         Format::Obj,
         Format::Ply,
         Format::Pgm,
@@ -49,6 +52,7 @@ impl Format {
         Format::Set,
         Format::Mcap,
         Format::Glb,
+        Format::Gltf,
     ];
 
     pub fn name(self) -> &'static str {
@@ -62,6 +66,7 @@ impl Format {
             Format::Set => "set",
             Format::Mcap => "mcap",
             Format::Glb => "glb",
+            Format::Gltf => "gltf",
         }
     }
 
@@ -166,6 +171,7 @@ pub fn seeds(format: Format) -> Vec<Vec<u8>> {
     let read = |n: &str| std::fs::read(data(n)).expect("fixture");
     match format {
         Format::Glb => vec![box_glb()],
+        Format::Gltf => vec![box_gltf(BOX_BIN, &[r#"{"mesh":0}"#.to_string()])],
         Format::Obj => vec![
             room_obj().into_bytes(),
             b"# tensorscout spawn 0.5 0.25 1.5\no a\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nv 0 0 3\nv 1 0 3\nf 1 2 3 4\nf -4 -3 -2\nf 1 2 6 5\n".to_vec(),
@@ -315,8 +321,13 @@ pub fn case_input(seed: u64, format: Format, index: u64, seeds: &[Vec<u8>]) -> V
         seed ^ (format as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
             ^ index.wrapping_mul(0xd6e8_feb8_6659_fd93),
     );
-    let mut bytes = seeds[rng.random_range(0..seeds.len())].clone();
-    for _ in 0..rng.random_range(1..=4) {
+    let mut bytes = if format == Format::Gltf {
+        gltf_case(&mut rng)
+    } else {
+        seeds[rng.random_range(0..seeds.len())].clone()
+    };
+    let least = if format == Format::Gltf { 0 } else { 1 };
+    for _ in 0..rng.random_range(least..=4) {
         mutate_once(&mut rng, &mut bytes, format.is_text(), seeds);
     }
     bytes
@@ -363,6 +374,19 @@ pub fn run_case(format: Format, bytes: &[u8], dir: &Path) -> Outcome {
     let r = std::panic::catch_unwind(|| match format {
         Format::Obj => load_scene(dir, "case.obj", bytes),
         Format::Glb => load_scene(dir, "case.glb", bytes),
+        Format::Gltf => {
+            // The case lies in `g/`, beside its valid buffer and a link to /dev/zero; `x.bin`
+            // lies outside that folder.
+            let g = dir.join("g");
+            if !g.is_dir() {
+                std::fs::create_dir(&g).expect("case folder");
+                std::fs::write(g.join(BOX_BIN), box_bin().0).expect("write buffer");
+                std::fs::write(dir.join("x.bin"), box_bin().0).expect("write buffer");
+                std::os::unix::fs::symlink("/dev/zero", g.join("zero.bin")).expect("link");
+                std::os::unix::fs::symlink(dir.join("x.bin"), g.join("out.bin")).expect("link");
+            }
+            load_scene(&g, "case.gltf", bytes)
+        }
         Format::Ply => load_scene(dir, "case.ply", bytes),
         Format::HouseExpo => load_scene(dir, "case.json", bytes),
         Format::Pgm => {
@@ -451,9 +475,74 @@ pub fn run_range(
     tally
 }
 
-/// A GLB of a 4 × 3 × 2.5 m box room (y-up, as glTF writes it): the glTF fuzz seed. JSON chunk
-/// with one node, mesh, two accessors and buffer views; BIN chunk with positions and u16 indices.
-fn box_glb() -> Vec<u8> {
+/// The valid buffer file of the `.gltf` cases.
+const BOX_BIN: &str = "box.bin";
+
+/// Buffer URIs a hostile `.gltf` may name: outside its folder, devices, links, odd spellings.
+const BUFFER_URIS: [&str; 14] = [
+    BOX_BIN,
+    "./box.bin",
+    "box%2Ebin",
+    "../x.bin",
+    "%2E%2E/x.bin",
+    "g/../../x.bin",
+    "/etc/passwd",
+    "/dev/zero",
+    "/dev/urandom",
+    "zero.bin",
+    "out.bin",
+    "",
+    "missing.bin",
+    "file:///etc/passwd",
+];
+
+/// A `.gltf` of the box room whose buffer is `uri` and whose nodes are `nodes` (JSON objects; node
+/// 0 is the scene's root).
+fn box_gltf(uri: &str, nodes: &[String]) -> Vec<u8> {
+    let (bin, pos_len, idx_len) = box_bin();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],"accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,-3],"max":[4,2.5,0]}},{{"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}},{{"buffer":0,"byteOffset":{pos_len},"byteLength":{idx_len}}}],"buffers":[{{"uri":"{uri}","byteLength":{}}}]}}"#,
+        nodes.join(","),
+        bin.len()
+    )
+    .into_bytes()
+}
+
+/// A `.gltf` case before text mutations: a buffer URI from [`BUFFER_URIS`] and a node graph of one
+/// of five shapes: a chain whose nodes list the next 1–4 times (up to 4^40 instances), a cycle, a
+/// node listing itself, a chain deeper than the loader's depth limit, or a child index past the end.
+fn gltf_case(rng: &mut ChaCha8Rng) -> Vec<u8> {
+    let uri = BUFFER_URIS[rng.random_range(0..BUFFER_URIS.len())];
+    let node = |children: &[usize]| {
+        let list: Vec<String> = children.iter().map(usize::to_string).collect();
+        format!(r#"{{"mesh":0,"children":[{}]}}"#, list.join(","))
+    };
+    let nodes: Vec<String> = match rng.random_range(0..5) {
+        0 => {
+            let (n, fan) = (rng.random_range(1..=40), rng.random_range(1..=4));
+            let mut v: Vec<String> = (0..n).map(|i| node(&vec![i + 1; fan])).collect();
+            v.push(r#"{"mesh":0}"#.into());
+            v
+        }
+        1 => {
+            let n = rng.random_range(1..=5);
+            (0..n).map(|i| node(&[(i + 1) % n])).collect()
+        }
+        2 => vec![node(&[0])],
+        3 => {
+            let n = rng.random_range(1000..=1100);
+            let mut v: Vec<String> = (0..n).map(|i| node(&[i + 1])).collect();
+            v.push(r#"{"mesh":0}"#.into());
+            v
+        }
+        _ => vec![node(&[1, 7, usize::MAX / 2])],
+    };
+    box_gltf(uri, &nodes)
+}
+
+/// The box room's buffer: positions (f32 VEC3, y-up) then u16 indices, padded to 4 bytes; and the
+/// byte lengths of the two views.
+fn box_bin() -> (Vec<u8>, usize, usize) {
     // z-up corners, written y-up as (x, z, −y).
     let (x1, y1, z1) = (4.0f32, 3.0f32, 2.5f32);
     let corners: Vec<[f32; 3]> = (0..8)
@@ -488,6 +577,13 @@ fn box_glb() -> Vec<u8> {
     while bin.len() % 4 != 0 {
         bin.push(0);
     }
+    (bin, pos_len, idx_len)
+}
+
+/// A GLB of a 4 × 3 × 2.5 m box room (y-up, as glTF writes it): the GLB fuzz seed. JSON chunk
+/// with one node, mesh, two accessors and buffer views; BIN chunk with positions and u16 indices.
+fn box_glb() -> Vec<u8> {
+    let (bin, pos_len, idx_len) = box_bin();
     let json = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],"accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,-3],"max":[4,2.5,0]}},{{"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}},{{"buffer":0,"byteOffset":{pos_len},"byteLength":{idx_len}}}],"buffers":[{{"byteLength":{}}}]}}"#,
         bin.len()

@@ -22,6 +22,7 @@ fn scene(mesh: crate::scene::TriMesh) -> Scene {
         floor_z: 0.0,
         source: "obj".into(),
         warnings: Vec::new(),
+        inputs: Vec::new(),
     }
 }
 
