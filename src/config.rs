@@ -1342,7 +1342,7 @@ mod tests {
                 }
             }
             let beyond = if matches!(bound.span, Count) {
-                format!("{}", bound.hi as i64 + 1)
+                format!("{}", (bound.hi as i64).saturating_add(1))
             } else {
                 format!("{:e}", bound.hi * 2.0 + 1.0)
             };

@@ -384,7 +384,7 @@ fn bad_log_config_is_a_usage_error() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("config key `log.zstd_level` must be 1..=19, got 0"),
+        stderr(&o).contains("config key `log.zstd_level` must lie in 1..=19, got 0"),
         "{}",
         stderr(&o)
     );
