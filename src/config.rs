@@ -699,6 +699,24 @@ impl Default for Config {
     }
 }
 
+/// The dotted keys of `tree` whose values are numbers, in the order of the tree: the keys
+/// [`BOUNDS`] must cover, and the ones a sweep over bad values walks.
+pub fn number_keys(tree: &toml::Table) -> Vec<String> {
+    fn walk(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+        for (k, v) in table {
+            let key = format!("{prefix}{k}");
+            match v {
+                toml::Value::Table(t) => walk(t, &format!("{key}."), out),
+                toml::Value::Integer(_) | toml::Value::Float(_) => out.push(key),
+                _ => {}
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(tree, "", &mut out);
+    out
+}
+
 fn default_tree() -> toml::Table {
     DEFAULT_TOML
         .parse::<toml::Table>()
@@ -1269,24 +1287,11 @@ mod tests {
         }
     }
 
-    /// The number keys of a tree, dotted, in the order of the file.
-    fn number_keys(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
-        for (k, v) in table {
-            let key = format!("{prefix}{k}");
-            match v {
-                toml::Value::Table(t) => number_keys(t, &format!("{key}."), out),
-                toml::Value::Integer(_) | toml::Value::Float(_) => out.push(key),
-                _ => {}
-            }
-        }
-    }
-
     /// Every number key has a bound, stated in its comment in `configs/default.toml` as the error
     /// states it; both profiles' defaults lie within.
     #[test]
     fn every_number_key_is_bounded_and_says_so() {
-        let mut keys = Vec::new();
-        number_keys(&default_tree(), "", &mut keys);
+        let mut keys = number_keys(&default_tree());
         let mut bounded: Vec<String> = BOUNDS.iter().map(|b| b.key.to_string()).collect();
         keys.sort();
         bounded.sort();

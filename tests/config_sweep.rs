@@ -13,18 +13,6 @@ const MEMORY_LIMIT_KIB: u64 = 3 << 20;
 /// Wall-clock limit of one run of 5 simulated seconds (generous: the machine may be busy).
 const TIME_LIMIT: Duration = Duration::from_secs(60);
 
-/// The dotted number keys of a TOML table, in file order.
-fn number_keys(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
-    for (k, v) in table {
-        let key = format!("{prefix}{k}");
-        match v {
-            toml::Value::Table(t) => number_keys(t, &format!("{key}."), out),
-            toml::Value::Integer(_) | toml::Value::Float(_) => out.push(key),
-            _ => {}
-        }
-    }
-}
-
 /// The planner whose run reads the key's section (GREEDY for the shared sections).
 fn planner_for(key: &str) -> &'static str {
     match key.split('.').next().unwrap_or("") {
@@ -82,8 +70,7 @@ fn every_number_key_through_absurd_values() {
         .output()
         .unwrap();
     let tree: toml::Table = String::from_utf8(out.stdout).unwrap().parse().unwrap();
-    let mut keys = Vec::new();
-    number_keys(&tree, "", &mut keys);
+    let keys = tensorscout::config::number_keys(&tree);
     assert!(keys.len() > 100, "{} number keys", keys.len());
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("room.obj");

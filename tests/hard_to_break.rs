@@ -924,17 +924,11 @@ fn bench_merge_of_a_cut_shard_says_so() {
 #[test]
 fn automatic_spawn_must_fit_the_robot() {
     let dir = tempfile::tempdir().unwrap();
-    let mut mesh = tensorscout::scene::TriMesh::default();
-    for (x0, y0, x1, y1, z1) in [
-        (0.0, 0.0, 6.2, 0.6, 0.0),
-        (0.0, 0.0, 6.2, 0.1, 2.5),
-        (0.0, 0.5, 6.2, 0.6, 2.5),
-        (0.0, 0.0, 0.1, 0.6, 2.5),
-        (6.1, 0.0, 6.2, 0.6, 2.5),
-    ] {
-        mesh.push_box([x0, y0, 0.0], [x1, y1, z1]);
-    }
-    let scene = write(dir.path(), "narrow.obj", &common::obj_text(&mesh, None));
+    let scene = write(
+        dir.path(),
+        "narrow.obj",
+        &common::walled_room_obj(6.2, 0.6, None),
+    );
     let o = bin()
         .args(["explore", "-q", "--json", "--scene"])
         .arg(&scene)

@@ -65,13 +65,20 @@ pub fn obj_text(mesh: &tensorscout::scene::TriMesh, spawn: Option<&str>) -> Stri
 /// wall boxes), as OBJ, with an optional spawn line (`"X Y YAW"`).
 #[allow(dead_code)]
 pub fn room_obj(spawn: Option<&str>) -> String {
+    walled_room_obj(6.0, 4.0, spawn)
+}
+
+/// A closed `w` × `d` m room (outer size) with 2.5 m walls 0.1 m thick, as OBJ, with an optional
+/// spawn line.
+#[allow(dead_code)]
+pub fn walled_room_obj(w: f64, d: f64, spawn: Option<&str>) -> String {
     let mut mesh = tensorscout::scene::TriMesh::default();
     for (x0, y0, x1, y1, z1) in [
-        (0.0, 0.0, 6.0, 4.0, 0.0),
-        (0.0, 0.0, 6.0, 0.1, 2.5),
-        (0.0, 3.9, 6.0, 4.0, 2.5),
-        (0.0, 0.0, 0.1, 4.0, 2.5),
-        (5.9, 0.0, 6.0, 4.0, 2.5),
+        (0.0, 0.0, w, d, 0.0),
+        (0.0, 0.0, w, 0.1, 2.5),
+        (0.0, d - 0.1, w, d, 2.5),
+        (0.0, 0.0, 0.1, d, 2.5),
+        (w - 0.1, 0.0, w, d, 2.5),
     ] {
         mesh.push_box([x0, y0, 0.0], [x1, y1, z1]);
     }
