@@ -112,6 +112,16 @@ pub fn base64_decode(text: &str) -> Option<Vec<u8>> {
 
 /// Runs `f` on a rayon pool of its own with `threads` threads: tests that check results do not
 /// depend on the thread count.
+/// The message a panic carried (`panic!` with a literal or a formatted string), for rows and
+/// errors that report a caught panic.
+pub fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
 #[cfg(test)]
 pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
     rayon::ThreadPoolBuilder::new()

@@ -4,12 +4,12 @@
 //!
 //! The runs are driven here rather than by `bench::run_batch`, whose runs know only built-in
 //! planners and cannot be stopped midway: each run here builds its planner (built-in, or a fresh
-//! instance of the Python class), and stops at the next step when Ctrl-C arrives. A run does what
-//! `bench::run_one` does without a log (the same config, seed, scene, world and step loop), so its
-//! row equals the command line's; `tests/test_bench.py` checks it.
+//! instance of the Python class), and stops at the next step when Ctrl-C arrives. Each row is made by
+//! `bench::run_row`, as the command line's are (the same config, seed, scene, world and step loop),
+//! so it equals the command line's; `tests/test_bench.py` checks it.
 
 use crate::config;
-use crate::errors::{guard, panic_message, usage, IntoPy};
+use crate::errors::{guard, usage, IntoPy};
 use crate::planner::{planner_name, Pending, PyPlanner};
 use crate::simulation::{planner_kind, SIGNAL_CHECK};
 use pyo3::prelude::*;
@@ -17,14 +17,12 @@ use pyo3::types::PyList;
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::io::Write;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Mutex};
-use tensorscout::bench::{self as batch, BenchRow, BenchSpec, RunKey, RunStatus, RESULTS_JSONL};
-use tensorscout::config::SpawnMode;
+use tensorscout::bench::{self as batch, BenchRow, BenchSpec, RunKey, RESULTS_JSONL};
 use tensorscout::plan::{Planner, PlannerKind};
-use tensorscout::sim::{ObservableCache, Observer, Simulation, World};
+use tensorscout::sim::{ObservableCache, Observer, Simulation};
 use tensorscout::{scene, Config};
 
 /// The command line's limits (`bench --seeds`, `--jobs`).
@@ -53,13 +51,12 @@ impl Observer for StopFlag<'_> {
     }
 }
 
-/// One run's row; `None` when it was interrupted (such a row is not kept).
-fn run_row(job: &Job, who: &Who, base: &Config, stop: &AtomicBool) -> Option<BenchRow> {
-    let outcome = catch_unwind(AssertUnwindSafe(|| -> tensorscout::Result<_> {
-        let mut cfg = base.clone();
-        cfg.seed = job.key.seed;
-        let planner: Box<dyn Planner + Send> = match who {
-            Who::Builtin(k) => k.build(&cfg)?,
+/// One run's row (as `bench::run_row` makes it for the command line); `None` when it was
+/// interrupted (such a row is not kept).
+fn run_job(job: &Job, who: &Who, base: &Config, stop: &AtomicBool) -> Option<BenchRow> {
+    let prepare = |cfg: &Config| -> tensorscout::Result<Box<dyn Planner + Send>> {
+        match who {
+            Who::Builtin(k) => k.build(cfg),
             Who::Python(factory, name) => Python::attach(|py| {
                 factory
                     .bind(py)
@@ -74,44 +71,26 @@ fn run_row(job: &Job, who: &Who, base: &Config, stop: &AtomicBool) -> Option<Ben
                             e.value(py)
                         ))
                     })
-            })?,
-        };
-        let scene = scene::load(&job.scene, &cfg.scene)?;
-        let world = World::with_cache(&scene, &cfg, None, &ObservableCache::user())?;
-        Ok(Simulation::with_planner(&scene, world, &cfg, planner).run_to_end(&mut StopFlag(stop)))
-    }));
-    Some(match outcome {
-        Ok(Ok(out)) => {
-            if out.result.termination == tensorscout::sim::Termination::Interrupted {
-                return None;
-            }
-            BenchRow {
-                key: job.key.clone(),
-                status: if out.result.error.is_some() {
-                    RunStatus::Failed
-                } else {
-                    RunStatus::Ok
-                },
-                error: out.result.error.clone(),
-                result: Some(out.result),
-            }
+            }),
         }
-        Ok(Err(e)) => BenchRow::failed(job.key.clone(), e.to_string()),
-        Err(p) => BenchRow::failed(job.key.clone(), format!("panic: {}", panic_message(&*p))),
-    })
-}
-
-/// Computes (or reads from the cache) each scene's observable set once, before parallel runs of
-/// the scene would each compute it.
-fn prepare_scenes(scenes: &BTreeSet<&PathBuf>, cfg: &Config) {
-    for path in scenes {
-        let Ok(s) = scene::load(path, &cfg.scene) else {
-            continue;
-        };
-        let mut cfg = cfg.clone();
-        cfg.sim.spawn = SpawnMode::Scene;
-        let _ = World::with_cache(&s, &cfg, None, &ObservableCache::user());
-    }
+    };
+    let row =
+        batch::run_row(
+            &job.key,
+            &job.scene,
+            base,
+            &ObservableCache::user(),
+            prepare,
+            |scene, world, cfg, planner| {
+                Ok(Simulation::with_planner(scene, world, cfg, planner)
+                    .run_to_end(&mut StopFlag(stop)))
+            },
+        );
+    let interrupted = row
+        .result
+        .as_ref()
+        .is_some_and(|r| r.termination == tensorscout::sim::Termination::Interrupted);
+    (!interrupted).then_some(row)
 }
 
 /// The keys already in `results.jsonl` (for `resume`).
@@ -250,13 +229,13 @@ pub fn bench<'py>(
                 (&todo, &who, &cfg, &writer, &stop, &pool, &jsonl);
             s.spawn(move || {
                 let r = pool.install(|| {
-                    prepare_scenes(&scenes_used, cfg);
+                    let _ = batch::prepare_scenes(scenes_used, cfg, &ObservableCache::user());
                     todo.par_iter()
                         .map(|job| -> tensorscout::Result<()> {
                             if stop.load(Ordering::Relaxed) {
                                 return Ok(());
                             }
-                            let Some(row) = run_row(job, &who[job.who], cfg, stop) else {
+                            let Some(row) = run_job(job, &who[job.who], cfg, stop) else {
                                 return Ok(());
                             };
                             let line = serde_json::to_string(&row)

@@ -3,6 +3,7 @@
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use tensorscout::util::panic_message;
 
 /// The exception class of `tensorscout._errors` for a library error: usage errors are `ValueError`s,
 /// a missing file a `FileNotFoundError`, other file errors `OSError`s, all of them `tensorscout.Error`.
@@ -49,15 +50,6 @@ impl<T> IntoPy<T> for tensorscout::Result<T> {
     fn py_err(self, py: Python<'_>) -> PyResult<T> {
         self.map_err(|e| to_py(py, &e))
     }
-}
-
-/// The message of a caught panic.
-pub fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
-    panic
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| panic.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
 }
 
 /// Runs `f`; a panic inside becomes `tensorscout.InternalError` instead of unwinding into Python.

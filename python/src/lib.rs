@@ -25,5 +25,14 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::PyVecEnvCore>()?;
     m.add_class::<planner::PyPlanContext>()?;
     m.add_function(wrap_pyfunction!(bench::bench, m)?)?;
+    m.add_function(wrap_pyfunction!(panic_inside_guard, m)?)?;
     Ok(())
+}
+
+/// Panics inside [`errors::guard`], as a bug in any entry point would: the tests check that it
+/// arrives as `tensorscout.InternalError`, with the interpreter alive.
+#[pyfunction]
+#[pyo3(name = "_panic_inside_guard")]
+fn panic_inside_guard(py: Python<'_>, message: String) -> PyResult<()> {
+    errors::guard(py, || panic!("{message}"))
 }

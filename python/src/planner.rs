@@ -57,6 +57,9 @@ pub struct PyPlanner {
     obj: Py<PyAny>,
     name: &'static str,
     pending: Pending,
+    /// An exception `is_outdated` raised: the trait's answer there is a bool, so the error ends the
+    /// run at the next `plan` call, which the outdated answer brings at once.
+    raised_in_is_outdated: Option<tensorscout::Error>,
 }
 
 impl PyPlanner {
@@ -65,6 +68,7 @@ impl PyPlanner {
             obj,
             name: intern(name),
             pending,
+            raised_in_is_outdated: None,
         }
     }
 
@@ -160,6 +164,9 @@ impl Planner for PyPlanner {
     }
 
     fn plan(&mut self, ctx: &mut PlanContext) -> tensorscout::Result<Plan> {
+        if let Some(e) = self.raised_in_is_outdated.take() {
+            return Err(e);
+        }
         let search: &mut Search = ctx.search;
         let r = self.call_with_ctx(
             ctx.map,
@@ -179,9 +186,7 @@ impl Planner for PyPlanner {
         if !has {
             return false;
         }
-        // A failure here cannot end the run (the trait answers a bool); it is kept and raised by the
-        // next `plan` call instead, see `failure`. Simplification: it is treated as "not outdated".
-        self.call_with_ctx(
+        let answer = self.call_with_ctx(
             ctx.map,
             ctx.cfg,
             ctx.pose,
@@ -189,8 +194,12 @@ impl Planner for PyPlanner {
             None,
             "is_outdated",
             |r| r.extract::<bool>(),
-        )
-        .unwrap_or(false)
+        );
+        answer.unwrap_or_else(|e| {
+            let error = Python::attach(|py| self.failure(py, e, "is_outdated"));
+            self.raised_in_is_outdated = Some(error);
+            true
+        })
     }
 
     fn action_finished(&mut self, _ctx: &PlanContext, reached: bool) {

@@ -152,3 +152,6 @@ def bench(
     resume: bool,
     force: bool,
 ) -> List[Dict[str, Any]]: ...
+def _panic_inside_guard(message: str) -> None:
+    """Test hook: panics inside the guard every entry point runs in (raises InternalError)."""
+    ...

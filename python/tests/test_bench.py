@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import sys
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -59,3 +63,30 @@ def test_nearest_frontier_completes_without_collisions() -> None:
     r = tensorscout.Simulation(SMALL, planner=NearestFrontier()).run()
     assert r["termination"] == "complete", r["termination"]
     assert r["collisions"] == 0 and r["completeness"] > 0.9
+
+
+def test_ctrl_c_in_bench_keeps_finished_rows_and_resumes(tmp_path: Path) -> None:
+    """SIGINT during `bench()` raises KeyboardInterrupt; the rows finished by then stay whole in
+    results.jsonl, and `resume=True` runs only the rest."""
+    out = tmp_path / "int"
+    jsonl_path = out / "results.jsonl"
+
+    def interrupt_after_first_row() -> None:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            if jsonl_path.is_file() and jsonl_path.read_text().count("\n") >= 1:
+                os.kill(os.getpid(), signal.SIGINT)
+                return
+            time.sleep(0.02)
+
+    watcher = threading.Thread(target=interrupt_after_first_row, daemon=True)
+    watcher.start()
+    with pytest.raises(KeyboardInterrupt):
+        tensorscout.bench(SMALL, ["greedy"], seeds=6, out=out, config=CFG, jobs=1)
+    watcher.join()
+    kept = jsonl(jsonl_path)
+    assert 1 <= len(kept) < 6
+    assert all(r["status"] == "ok" and r["result"]["termination"] != "interrupted" for r in kept)
+    rows = tensorscout.bench(SMALL, ["greedy"], seeds=6, out=out, config=CFG, jobs=1, resume=True)
+    assert sorted(r["seed"] for r in rows) == [1, 2, 3, 4, 5, 6]
+    assert [r for r in rows if r["seed"] in {k["seed"] for k in kept}] == kept

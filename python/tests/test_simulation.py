@@ -161,6 +161,38 @@ def test_a_python_planner_that_raises_ends_the_run_in_error() -> None:
     assert "Traceback (most recent call last)" in r["error"] and "in plan" in r["error"]
 
 
+def test_a_python_planner_that_raises_in_is_outdated_ends_the_run_in_error() -> None:
+    """`is_outdated` answers a bool to the step loop; its exception still ends the run `error`, at
+    the plan that follows, with its own traceback."""
+
+    class OutdatedFails:
+        def __init__(self) -> None:
+            self.calls: list[str] = []
+
+        def plan(self, ctx: Any) -> Any:
+            self.calls.append("plan")
+            return tensorscout.LookAround()
+
+        def is_outdated(self, ctx: Any) -> bool:
+            self.calls.append("is_outdated")
+            raise ArithmeticError("cannot tell")
+
+    planner = OutdatedFails()
+    r = tensorscout.Simulation(SMALL, planner=planner).run()
+    assert r["termination"] == "error"
+    assert "raised in is_outdated: cannot tell" in r["error"]
+    assert "ArithmeticError: cannot tell" in r["error"] and "in is_outdated" in r["error"]
+    # The first raise ended the run: no plan, and no other call, came after it.
+    assert planner.calls.count("is_outdated") == 1 and planner.calls[-1] == "is_outdated"
+
+
+def test_a_rust_panic_arrives_as_internal_error() -> None:
+    with pytest.raises(tensorscout.InternalError, match="^panic: deliberately$"):
+        tensorscout._native._panic_inside_guard("deliberately")
+    # The interpreter and the package still work.
+    assert tensorscout.Simulation(SMALL, config={"sim.budget_s": 2}).run()["termination"] == "budget"
+
+
 def test_a_python_planner_gets_the_shared_searches() -> None:
     seen: dict[str, Any] = {}
 

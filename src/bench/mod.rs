@@ -211,58 +211,75 @@ pub fn run_one(
     log_dir: Option<&Path>,
     cache: &ObservableCache,
 ) -> BenchRow {
+    let prepare = |cfg: &Config| run.planner.build(cfg).map(|_| ());
+    run_row(
+        &run.key,
+        &run.scene_path,
+        base,
+        cache,
+        prepare,
+        |scene, world, cfg, ()| {
+            let Some(dir) = log_dir else {
+                return sim::run(scene, world, cfg, run.planner, &mut sim::NoObserver);
+            };
+            let path = dir.join(format!(
+                "{}_{}_seed{}_{}.mcap",
+                scene.name,
+                run.planner.label(cfg).replace('/', "-"),
+                run.key.seed,
+                &run.key.config_hash
+            ));
+            let identity =
+                crate::log::RunIdentity::new(&run.scene_path, scene, run.planner, cfg, None);
+            let mut recorder = crate::log::Recorder::new(
+                crate::log::RunLog::create(&path, &identity, &cfg.log)?,
+                cfg,
+                &scene.mesh,
+                None,
+            );
+            let out = sim::run(scene, world, cfg, run.planner, &mut recorder);
+            // The log is finished (summary section written) whatever the run's outcome.
+            recorder.sink.close()?;
+            out
+        },
+    )
+}
+
+/// The row of one run of a batch, for any planner: `base` with the run's seed is its config;
+/// `prepare` builds (or checks) what the run needs before its scene is loaded, `drive` runs it on
+/// the scene and its world. An error or a panic anywhere becomes a failed row, so the batch goes on.
+pub fn run_row<P>(
+    key: &RunKey,
+    scene_path: &Path,
+    base: &Config,
+    cache: &ObservableCache,
+    prepare: impl FnOnce(&Config) -> Result<P>,
+    drive: impl FnOnce(&scene::Scene, World, &Config, P) -> Result<sim::RunOutput>,
+) -> BenchRow {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<sim::RunOutput> {
         let mut cfg = base.clone();
-        cfg.seed = run.key.seed;
-        run.planner.build(&cfg)?;
-        let scene = scene::load(&run.scene_path, &cfg.scene)?;
+        cfg.seed = key.seed;
+        let prepared = prepare(&cfg)?;
+        let scene = scene::load(scene_path, &cfg.scene)?;
         let world = World::with_cache(&scene, &cfg, None, cache)?;
-        let Some(dir) = log_dir else {
-            return sim::run(&scene, world, &cfg, run.planner, &mut sim::NoObserver);
-        };
-        let path = dir.join(format!(
-            "{}_{}_seed{}_{}.mcap",
-            scene.name,
-            run.planner.label(&cfg).replace('/', "-"),
-            run.key.seed,
-            &run.key.config_hash
-        ));
-        let identity =
-            crate::log::RunIdentity::new(&run.scene_path, &scene, run.planner, &cfg, None);
-        let mut recorder = crate::log::Recorder::new(
-            crate::log::RunLog::create(&path, &identity, &cfg.log)?,
-            &cfg,
-            &scene.mesh,
-            None,
-        );
-        let out = sim::run(&scene, world, &cfg, run.planner, &mut recorder);
-        // The log is finished (summary section written) whatever the run's outcome.
-        recorder.sink.close()?;
-        out
+        drive(&scene, world, &cfg, prepared)
     }));
     match outcome {
-        Ok(Ok(out)) => {
-            let status = if out.result.error.is_some() {
+        Ok(Ok(out)) => BenchRow {
+            key: key.clone(),
+            status: if out.result.error.is_some() {
                 RunStatus::Failed
             } else {
                 RunStatus::Ok
-            };
-            BenchRow {
-                key: run.key.clone(),
-                status,
-                error: out.result.error.clone(),
-                result: Some(out.result),
-            }
-        }
-        Ok(Err(e)) => BenchRow::failed(run.key.clone(), e.to_string()),
-        Err(panic) => {
-            let msg = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            BenchRow::failed(run.key.clone(), format!("panic: {msg}"))
-        }
+            },
+            error: out.result.error.clone(),
+            result: Some(out.result),
+        },
+        Ok(Err(e)) => BenchRow::failed(key.clone(), e.to_string()),
+        Err(panic) => BenchRow::failed(
+            key.clone(),
+            format!("panic: {}", crate::util::panic_message(&*panic)),
+        ),
     }
 }
 
@@ -298,8 +315,13 @@ pub struct BatchReport {
 /// parallel runs of one scene do not all compute it. A scene that fails to load is left to its runs,
 /// which report the error in their rows; so is one whose preparation panics (each run then fails on
 /// its own, as a `failed` row, instead of the panic ending the batch).
-fn prepare_scenes(runs: &[RunSpec], cfg: &Config, cache: &ObservableCache) -> Vec<String> {
-    let scenes: BTreeSet<&PathBuf> = runs.iter().map(|r| &r.scene_path).collect();
+/// Answers the warnings to show once (a refused spawn line, a stale cache).
+pub fn prepare_scenes<'a>(
+    scenes: impl IntoIterator<Item = &'a PathBuf>,
+    cfg: &Config,
+    cache: &ObservableCache,
+) -> Vec<String> {
+    let scenes: BTreeSet<&PathBuf> = scenes.into_iter().collect();
     let mut notes = Vec::new();
     for path in scenes {
         let prepared = catch_unwind(AssertUnwindSafe(|| {
@@ -410,7 +432,13 @@ pub fn run_batch(spec: &BenchSpec, progress: &dyn Progress) -> Result<BatchRepor
         .build()
         .map_err(|e| Error::Runtime(format!("cannot start the thread pool: {e}")))?;
     let mut notes: Vec<String> = cut_row.into_iter().collect();
-    notes.extend(pool.install(|| prepare_scenes(&todo, &spec.config, &spec.cache)));
+    notes.extend(pool.install(|| {
+        prepare_scenes(
+            todo.iter().map(|r| &r.scene_path),
+            &spec.config,
+            &spec.cache,
+        )
+    }));
     // One pool: the runs and the ray casting inside each run share its threads, so the batch never
     // uses more than `jobs` threads.
     let write_errors: Vec<Error> = pool.install(|| {

@@ -75,6 +75,15 @@ impl SceneTruth {
             )));
         }
         let triangles = VoxelTriangles::build(mesh, &grid);
+        // The observable set's caster tests every triangle listed in each voxel a ray crosses, so
+        // faces stacked on one another (thousands of nearly equal faces) multiply its work by their
+        // depth.
+        let depth = triangles.stacking_depth();
+        if depth > MAX_STACKING_DEPTH {
+            return Err(Error::usage(format!(
+                "the scene's faces stack {depth:.0} deep in its voxels (more than {MAX_STACKING_DEPTH:.0}): nearly repeated faces, or a mesh too fine for map.voxel_m; decimate the mesh, or raise map.voxel_m"
+            )));
+        }
         let mut occupied = vec![false; grid.voxels()];
         for &v in &triangles.voxels {
             occupied[v as usize] = true;
@@ -284,6 +293,10 @@ pub struct VoxelTriangles {
 /// bounding box (see [`triangle_voxel_span`]).
 pub const MAX_TRIANGLE_VOXELS: u64 = 100_000_000;
 
+/// Most a scene's faces may stack (see [`VoxelTriangles::stacking_depth`]): the shipped scenes and
+/// real plans stack under 2 deep, so this leaves room for finely tessellated furniture.
+pub const MAX_STACKING_DEPTH: f64 = 64.0;
+
 /// The voxels of `grid` in the bounding boxes of `mesh`'s triangles, summed over the triangles:
 /// the work of [`VoxelTriangles::build`].
 pub fn triangle_voxel_span(mesh: &TriMesh, grid: &GridSpec) -> u64 {
@@ -318,6 +331,21 @@ pub fn triangle_voxel_span(mesh: &TriMesh, grid: &GridSpec) -> u64 {
 }
 
 impl VoxelTriangles {
+    /// How many triangles a triangle shares its voxels with, on average over the listed
+    /// (voxel, triangle) pairs: Σ d² / Σ d over the voxels' list lengths d. Unlike the mean
+    /// over voxels, a large floor of single triangles does not dilute a stack of repeated faces.
+    pub fn stacking_depth(&self) -> f64 {
+        let (sum, sum_sq) = self.starts.windows(2).fold((0.0, 0.0), |(s, q), w| {
+            let d = f64::from(w[1] - w[0]);
+            (s + d, q + d * d)
+        });
+        if sum > 0.0 {
+            sum_sq / sum
+        } else {
+            0.0
+        }
+    }
+
     /// Lists the triangles of `mesh` over every voxel of `grid`.
     pub fn build(mesh: &TriMesh, grid: &GridSpec) -> VoxelTriangles {
         let tris = snapped_triangles(mesh, grid);
@@ -563,6 +591,36 @@ mod tests {
             })
             .collect();
         extrude_grid(&solid, nx, ny, [0.0, 0.0], 0.1, 2.5)
+    }
+
+    #[test]
+    fn stacked_faces_are_refused_by_their_stacking_depth() {
+        let cfg = Config::default();
+        let room = box_room();
+        let grid = scene_grid(&room, &cfg).unwrap();
+        let once = VoxelTriangles::build(&room, &grid).stacking_depth();
+        let mut stacked = room.clone();
+        for _ in 1..3 {
+            stacked.append(&room);
+        }
+        // Copies list each triangle again in the same voxels: the depth triples exactly. (Scenes
+        // loaded from files lose exact copies, see `TriMesh::drop_repeated_triangles`; nearly equal
+        // faces stack the same way.)
+        let thrice = VoxelTriangles::build(&stacked, &grid).stacking_depth();
+        assert!((thrice - 3.0 * once).abs() < 1e-9, "{once} {thrice}");
+        assert!(SceneTruth::build(&stacked, None, &cfg).is_ok());
+        let copies = (MAX_STACKING_DEPTH / once).ceil() as usize + 1;
+        for _ in 3..copies {
+            stacked.append(&room);
+        }
+        let err = SceneTruth::build(&stacked, None, &cfg)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("the scene's faces stack ")
+                && err.ends_with(" deep in its voxels (more than 64): nearly repeated faces, or a mesh too fine for map.voxel_m; decimate the mesh, or raise map.voxel_m"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -39,6 +39,27 @@ impl TriMesh {
         self.triangles.push([a, c, d]);
     }
 
+    /// Drops every triangle that repeats an earlier one: the same three corner positions in the
+    /// same cyclic order (a face the other way round stays: it faces the other side). A repeated
+    /// face changes nothing the camera, the collision test or the ground truth can see, but
+    /// multiplies the work of every test that lists the faces in a voxel (a face copied thousands
+    /// of times kept the observable set busy for minutes). Answers how many were dropped.
+    pub fn drop_repeated_triangles(&mut self) -> usize {
+        let TriMesh {
+            vertices,
+            triangles,
+        } = self;
+        let corner = |i: u32| vertices[i as usize].coords.map(f32::to_bits).into();
+        let mut seen = std::collections::HashSet::with_capacity(triangles.len());
+        let before = triangles.len();
+        triangles.retain(|t| {
+            let c: [[u32; 3]; 3] = t.map(corner);
+            let first = (0..3).min_by_key(|&k| c[k]).unwrap_or(0);
+            seen.insert([c[first], c[(first + 1) % 3], c[(first + 2) % 3]])
+        });
+        before - triangles.len()
+    }
+
     /// Appends another mesh, re-indexing its triangles.
     pub fn append(&mut self, other: &TriMesh) {
         let offset = self.vertices.len() as u32;
@@ -186,4 +207,34 @@ pub fn triangulate_face(
     }
     out.push([face[left[0]], face[left[1]], face[left[2]]]);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn repeated_triangles_are_dropped_and_turned_ones_kept() {
+        let mut m = TriMesh::default();
+        let a = m.push_vertex(0.0, 0.0, 0.0);
+        let b = m.push_vertex(1.0, 0.0, 0.0);
+        let c = m.push_vertex(0.0, 1.0, 0.0);
+        // The same corners again under other indices (as OBJ files often repeat vertices).
+        let (a2, b2, c2) = (
+            m.push_vertex(0.0, 0.0, 0.0),
+            m.push_vertex(1.0, 0.0, 0.0),
+            m.push_vertex(0.0, 1.0, 0.0),
+        );
+        m.triangles = vec![
+            [a, b, c],
+            [b, c, a],    // the same face, another first corner
+            [a2, b2, c2], // the same positions, other vertices
+            [a, c, b],    // turned round: faces the other way, kept
+            [a, b, c],
+            [c2, b2, a2], // turned round again: a repeat of the turned face
+        ];
+        assert_eq!(m.drop_repeated_triangles(), 4);
+        assert_eq!(m.triangles, vec![[a, b, c], [a, c, b]]);
+        assert_eq!(m.drop_repeated_triangles(), 0);
+    }
 }

@@ -111,6 +111,7 @@ pub fn load(path: &Path, cfg: &SceneConfig) -> Result<Scene> {
     };
     let floor_z = validate(path, &mesh, cfg)?;
     mesh.translate(0.0, 0.0, -floor_z);
+    mesh.drop_repeated_triangles();
     Ok(Scene {
         name: path
             .file_stem()
