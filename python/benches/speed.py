@@ -22,13 +22,17 @@ OFFICE = ROOT / "scenes/office_large.obj"
 SCENE = ROOT / "scenes/apartment_small.obj"
 
 
-def median_time(f: Callable[[], Any], repeat: int) -> float:
-    times = []
+def paired_medians(a: Callable[[], Any], b: Callable[[], Any], repeat: int) -> tuple[float, float]:
+    """Median wall times of `a` and `b`, run alternately, so that a drift of the machine's speed
+    falls on both alike."""
+    ta: List[float] = []
+    tb: List[float] = []
     for _ in range(repeat):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+        for f, times in ((a, ta), (b, tb)):
+            t = time.perf_counter()
+            f()
+            times.append(time.perf_counter() - t)
+    return statistics.median(ta), statistics.median(tb)
 
 
 def env_rate(num_envs: int, action_type: str, steps: int, threads: int | None) -> float:
@@ -62,10 +66,12 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--planner", default="greedy")
     a = ap.parse_args()
-    cli = median_time(lambda: subprocess.run(
-        [a.bin, "explore", "--json", "--quiet", "--scene", str(OFFICE), "--planner", a.planner],
-        check=True, capture_output=True), a.repeat)
-    py = median_time(lambda: tensorscout.Simulation(OFFICE, planner=a.planner).run(), a.repeat)
+    cli, py = paired_medians(
+        lambda: subprocess.run(
+            [a.bin, "explore", "--json", "--quiet", "--scene", str(OFFICE), "--planner", a.planner],
+            check=True, capture_output=True),
+        lambda: tensorscout.Simulation(OFFICE, planner=a.planner).run(),
+        a.repeat)
     print(f"| run() vs CLI, office_large, {a.planner} | CLI {cli:.2f} s, run() {py:.2f} s: "
           f"{100 * (py / cli - 1):+.1f} % |")
     for action_type, steps in (("discrete", 300), ("goal", 30)):
