@@ -39,11 +39,6 @@ const DRIVE_D2: f64 = (0.45 / RES) * (0.45 / RES);
 /// the camera always gets close to it (a room corner is ~0.57 m from the nearest drivable cell).
 const APPROACH_D2: f64 = (0.6 / RES) * (0.6 / RES);
 
-/// How far, in cells, the fill that checks a piece leaves the drivable space in one piece looks
-/// around the cells it takes away before it looks at the whole plan (2 m: the way round a piece of
-/// furniture).
-const CONNECT_MARGIN: i32 = 40;
-
 /// The kind of building to generate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Style {
@@ -294,40 +289,79 @@ fn neighbours4(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
     .flatten()
 }
 
-/// Whether the `cells` (of a raster `w` wide) inside `window` join every cell of `targets` (not
-/// empty, all inside `window` and set) in one 4-connected piece: a breadth-first fill from the
-/// first that stops once it has reached them all.
-fn joined(targets: &[usize], window: Rect, w: usize, cells: &[bool]) -> bool {
+/// Whether the set `cells` (of a raster `w` wide) joins every cell of `targets` (distinct, all
+/// set) in one 4-connected piece. A breadth-first fill grows from every target at once, its parts
+/// merging where they meet: it answers yes once all have merged, and no as soon as one part has
+/// run out of cells while others remain. So the cost is that of the smallest piece when the set
+/// falls apart, and of the gaps between the targets when it does not, never the whole raster's.
+fn joined(targets: &[usize], w: usize, cells: &[bool], label: &mut [u32]) -> bool {
+    let mut reached = Vec::with_capacity(targets.len());
+    let answer = fill_parts(targets, w, cells, label, &mut reached);
+    for &c in &reached {
+        label[c] = 0;
+    }
+    answer
+}
+
+/// The fill of [`joined`]: `label` (all 0 on entry) gets, per cell reached, 1 + the target whose
+/// part reached it first; `reached` lists those cells, in the order reached.
+fn fill_parts(
+    targets: &[usize],
+    w: usize,
+    cells: &[bool],
+    label: &mut [u32],
+    reached: &mut Vec<usize>,
+) -> bool {
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
     let h = cells.len() / w;
-    let ww = window.w() as usize;
-    let local = |c: usize| {
-        let (x, y) = ((c % w) as i32, (c / w) as i32);
-        (window.x0..window.x1).contains(&x) && (window.y0..window.y1).contains(&y)
-    };
-    let slot = |c: usize| ((c / w) - window.y0 as usize) * ww + (c % w) - window.x0 as usize;
-    let mut seen = vec![false; ww * window.h() as usize];
-    let mut is_target = vec![false; seen.len()];
-    for &t in targets {
-        is_target[slot(t)] = true;
+    let mut parts = targets.len();
+    if parts <= 1 {
+        return true;
     }
-    let mut left = targets.len();
-    let mut queue = std::collections::VecDeque::from([targets[0]]);
-    seen[slot(targets[0])] = true;
-    while let Some(i) = queue.pop_front() {
-        if is_target[slot(i)] {
-            left -= 1;
-            if left == 0 {
-                return true;
-            }
-        }
+    let mut parent: Vec<usize> = (0..parts).collect();
+    // Per part (at its root), the cells reached and not yet expanded.
+    let mut pending = vec![1usize; parts];
+    for (k, &t) in targets.iter().enumerate() {
+        label[t] = k as u32 + 1;
+        reached.push(t);
+    }
+    let mut next = 0;
+    while let Some(&i) = reached.get(next) {
+        next += 1;
+        let a = root(&mut parent, label[i] as usize - 1);
         for j in neighbours4(i, w, h) {
-            if cells[j] && local(j) && !seen[slot(j)] {
-                seen[slot(j)] = true;
-                queue.push_back(j);
+            if !cells[j] {
+                continue;
+            }
+            if label[j] == 0 {
+                label[j] = label[i];
+                reached.push(j);
+                pending[a] += 1;
+            } else {
+                let b = root(&mut parent, label[j] as usize - 1);
+                if b != a {
+                    parent[b] = a;
+                    pending[a] += pending[b];
+                    parts -= 1;
+                    if parts == 1 {
+                        return true;
+                    }
+                }
             }
         }
+        pending[a] -= 1;
+        if pending[a] == 0 {
+            // This part is a whole piece of the set, and others remain.
+            return false;
+        }
     }
-    false
+    unreachable!("the fill ends when one part runs out of cells")
 }
 
 /// The plan being built: wall raster, rooms, doors, furniture.
@@ -365,6 +399,8 @@ struct Drivable {
     cells: Vec<bool>,
     /// How many cells are drivable.
     count: usize,
+    /// Scratch space of [`joined`], one per cell, all 0 between calls.
+    label: Vec<u32>,
 }
 
 /// Splits the footprint into rooms according to the style.
@@ -696,6 +732,7 @@ impl Plan {
         Some((
             best,
             Drivable {
+                label: vec![0; blocked.len()],
                 blocked,
                 cells: drivable,
                 count,
@@ -710,9 +747,8 @@ impl Plan {
     /// - a cell stops being drivable only within [`DRIVE_D2`] of a new blocked cell;
     /// - a room can lose its last drivable cell only if it lost one;
     /// - the remaining drivable cells stay connected if the ones next to the lost cells are still
-    ///   connected to each other (any path through the lost cells enters and leaves by them): a
-    ///   flood fill in a window around the lost cells usually shows it, and one over the whole
-    ///   plan decides when it does not;
+    ///   connected to each other (any path through the lost cells enters and leaves by them), which
+    ///   [`joined`] decides;
     /// - only cells within [`APPROACH_D2`] of a lost cell can lose the drivable cell near them;
     ///   their distances are taken on the part of their room window that holds every drivable
     ///   cell within that distance.
@@ -766,7 +802,7 @@ impl Plan {
 
     /// The rules of [`Plan::keeps_drivable`] after `lost` (not empty) stopped being drivable;
     /// `state` already holds the new blocked and drivable cells.
-    fn still_drivable(&self, state: &Drivable, lost: &[usize], w: usize, h: usize) -> bool {
+    fn still_drivable(&self, state: &mut Drivable, lost: &[usize], w: usize, h: usize) -> bool {
         if lost.len() == state.count {
             return false;
         }
@@ -807,8 +843,7 @@ impl Plan {
             .collect();
         border.sort_unstable();
         border.dedup();
-        let window = lost_box.grow(CONNECT_MARGIN).clip(&whole);
-        if !joined(&border, window, w, cells) && !joined(&border, whole, w, cells) {
+        if !joined(&border, w, cells, &mut state.label) {
             return false;
         }
         // No pocket: every unblocked cell near the lost ones keeps a drivable cell of its room
