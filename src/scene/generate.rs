@@ -557,6 +557,38 @@ impl Plan {
         (y * self.w + x) as usize
     }
 
+    /// The whole raster as a rectangle.
+    fn whole(&self) -> Rect {
+        Rect {
+            x0: 0,
+            y0: 0,
+            x1: self.w,
+            y1: self.h,
+        }
+    }
+
+    /// A room's window: the room, its walls and their doors, within the raster.
+    fn window(&self, room: &Rect) -> Rect {
+        room.grow(WALL).clip(&self.whole())
+    }
+
+    /// Whether an unblocked cell of `checked` lies farther than [`APPROACH_D2`] from every
+    /// drivable cell of `sites` (which holds `checked`): floor the robot cannot approach.
+    fn pocket(&self, drivable: &[bool], blocked: &[bool], checked: Rect, sites: Rect) -> bool {
+        let (sw, sh) = (sites.w() as usize, sites.h() as usize);
+        let site: Vec<bool> = (sites.y0..sites.y1)
+            .flat_map(|y| (sites.x0..sites.x1).map(move |x| (x, y)))
+            .map(|(x, y)| drivable[self.cell(x, y)])
+            .collect();
+        let near = distance_transform(&site, sw, sh);
+        (checked.y0..checked.y1)
+            .flat_map(|y| (checked.x0..checked.x1).map(move |x| (x, y)))
+            .any(|(x, y)| {
+                let d = near[(y - sites.y0) as usize * sw + (x - sites.x0) as usize];
+                !blocked[self.cell(x, y)] && d > APPROACH_D2
+            })
+    }
+
     /// Candidate doors between rooms separated by one wall: `(room a, room b, opening)`.
     fn door_candidates(&self, rng: &mut ChaCha8Rng) -> Vec<(usize, usize, Rect)> {
         let mut out = Vec::new();
@@ -707,24 +739,8 @@ impl Plan {
                 return None;
             }
             // (a) every free cell of the room window is near the drivable space.
-            let win = room.grow(WALL);
-            let win = Rect {
-                x0: win.x0.max(0),
-                y0: win.y0.max(0),
-                x1: win.x1.min(self.w),
-                y1: win.y1.min(self.h),
-            };
-            let (ww, wh) = (win.w() as usize, win.h() as usize);
-            let sites: Vec<bool> = (win.y0..win.y1)
-                .flat_map(|y| (win.x0..win.x1).map(move |x| (x, y)))
-                .map(|(x, y)| drivable[self.cell(x, y)])
-                .collect();
-            let near = distance_transform(&sites, ww, wh);
-            let pocket = (win.y0..win.y1)
-                .flat_map(|y| (win.x0..win.x1).map(move |x| (x, y)))
-                .zip(&near)
-                .any(|((x, y), &d)| !blocked[self.cell(x, y)] && d > APPROACH_D2);
-            if pocket {
+            let win = self.window(room);
+            if self.pocket(&drivable, &blocked, win, win) {
                 return None;
             }
         }
@@ -756,17 +772,11 @@ impl Plan {
     /// On `true`, `state` is updated to the plan with `new` blocked; on `false` it is left as it was.
     fn keeps_drivable(&self, state: &mut Drivable, new: &[Rect]) -> bool {
         let (w, h) = (self.w as usize, self.h as usize);
-        let whole = Rect {
-            x0: 0,
-            y0: 0,
-            x1: self.w,
-            y1: self.h,
-        };
         let Some(new_box) = bounding_box(new) else {
             return true;
         };
         // The drivable cells the new blocked cells take away.
-        let zone = new_box.grow(reach_cells(DRIVE_D2)).clip(&whole);
+        let zone = new_box.grow(reach_cells(DRIVE_D2)).clip(&self.whole());
         let mut lost = Vec::new();
         for y in zone.y0..zone.y1 {
             for x in zone.x0..zone.x1 {
@@ -807,12 +817,6 @@ impl Plan {
             return false;
         }
         let cells = &state.cells;
-        let whole = Rect {
-            x0: 0,
-            y0: 0,
-            x1: self.w,
-            y1: self.h,
-        };
         let at = |c: usize| ((c % w) as i32, (c / w) as i32);
         let lost_box = bounding_box(
             &lost
@@ -851,25 +855,12 @@ impl Plan {
         let reach = reach_cells(APPROACH_D2);
         let checked = lost_box.grow(reach);
         for room in &self.rooms {
-            let win = room.grow(WALL).clip(&whole);
+            let win = self.window(room);
             let q = checked.clip(&win);
             if q.w() <= 0 || q.h() <= 0 {
                 continue;
             }
-            let s = q.grow(reach).clip(&win);
-            let (sw, sh) = (s.w() as usize, s.h() as usize);
-            let sites: Vec<bool> = (s.y0..s.y1)
-                .flat_map(|y| (s.x0..s.x1).map(move |x| (x, y)))
-                .map(|(x, y)| cells[self.cell(x, y)])
-                .collect();
-            let near = distance_transform(&sites, sw, sh);
-            let pocket = (q.y0..q.y1)
-                .flat_map(|y| (q.x0..q.x1).map(move |x| (x, y)))
-                .any(|(x, y)| {
-                    let d = near[(y - s.y0) as usize * sw + (x - s.x0) as usize];
-                    !state.blocked[self.cell(x, y)] && d > APPROACH_D2
-                });
-            if pocket {
+            if self.pocket(&state.cells, &state.blocked, q, q.grow(reach).clip(&win)) {
                 return false;
             }
         }
