@@ -6,8 +6,11 @@
 //! cells with ≥ 0.45 m clearance from the robot-height footprint form one connected piece that
 //! reaches every room, and every free cell lies within 0.6 m of it (checked with the exact distance
 //! transform of the ground truth). Without the last rule a bed and a box 0.3 m apart cut off floor
-//! that counts as explorable but that the robot can never approach. All randomness comes from one
-//! ChaCha8 stream seeded by `seed`; nothing iterates a hash map.
+//! that counts as explorable but that the robot can never approach. The rules are checked over the
+//! whole plan once the doors are in, then, for each piece tried, only where the piece can change
+//! them (`Plan::keeps_drivable`, with the same answer), so a 10,000 m² plan takes seconds rather
+//! than minutes. All randomness comes from one ChaCha8 stream seeded by `seed`; nothing iterates a
+//! hash map.
 
 use super::extrude::extrude_grid;
 use super::TriMesh;
