@@ -16,7 +16,7 @@ use tensorscout::log::{Recorder, RunIdentity, RunLog, Sinks};
 use tensorscout::map::Map;
 use tensorscout::plan::Action;
 use tensorscout::plan::PlannerKind;
-use tensorscout::sim::{self, ObservableCache, Observer, RunResult, StepView, World};
+use tensorscout::sim::{self, Observer, RunResult, StepView, World};
 use tensorscout::{render, scene, Pose2};
 
 #[derive(Args)]
@@ -184,7 +184,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
     // Where the progress bar shows; there, too, the line that the observable set is being computed,
     // which can take minutes at full camera resolution.
     let interactive = !args.quiet && std::io::stderr().is_terminal();
-    let cache = ObservableCache::user().announcing(interactive);
+    let cache = super::progress::user_cache(interactive);
     let world = World::with_cache(&scene, &cfg, spawn, &cache)?;
     if let Some(w) = &world.spawn_warning {
         note!("{w}");

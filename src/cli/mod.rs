@@ -4,6 +4,7 @@ mod bench;
 mod explore;
 mod field;
 mod live;
+mod progress;
 mod replay;
 mod scene;
 

@@ -1,12 +1,14 @@
 //! `tensorscout scene generate|import|info|render`.
 
-use super::{check_distinct, check_output, emit, note, parse_spawn, scene_inputs, ConfigArgs};
+use super::{
+    check_distinct, check_output, emit, note, parse_spawn, progress, scene_inputs, ConfigArgs,
+};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 use tensorscout::eval::{self, GroundTruth};
 use tensorscout::scene::{self, generate};
-use tensorscout::sim::{ObservableCache, World};
+use tensorscout::sim::World;
 use tensorscout::{render, Pose2};
 
 #[derive(Subcommand)]
@@ -97,8 +99,7 @@ impl SceneArgs {
     fn load(&self) -> Result<(scene::Scene, World)> {
         let cfg = self.config.load()?;
         let scene = scene::load(&self.scene, &cfg.scene)?;
-        let cache = ObservableCache::user()
-            .announcing(std::io::IsTerminal::is_terminal(&std::io::stderr()));
+        let cache = progress::user_cache(std::io::IsTerminal::is_terminal(&std::io::stderr()));
         let world = World::with_cache(&scene, &cfg, self.spawn, &cache)?;
         if let Some(w) = world.observable_source.warning() {
             note!("{w}");
@@ -118,7 +119,17 @@ pub fn run(cmd: SceneCommand) -> Result<()> {
             force,
         } => {
             check_output(&output, force, Some("obj"))?;
-            let generated = generate::generate(style, seed, area)?;
+            let bar = progress::bar(
+                std::io::IsTerminal::is_terminal(&std::io::stderr()),
+                "rooms furnished",
+            );
+            let generated =
+                generate::generate_with_progress(style, seed, area, &mut |done, rooms| {
+                    bar.set_length(rooms as u64);
+                    bar.set_position(done as u64);
+                });
+            bar.finish_and_clear();
+            let generated = generated?;
             let comments = generated.header();
             scene::write_obj(&generated.mesh, Some(generated.spawn), &comments, &output)?;
             note!(

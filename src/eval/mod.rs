@@ -15,4 +15,6 @@ pub use metrics::{
     frontiers_left, surface_coverage, unseen_patches, ExploredVolume, FrontierGroup, FrontiersLeft,
     UnseenPatch, FRONTIER_GROUPS, UNSEEN_PATCHES,
 };
-pub use observable::{CacheOutcome, ObservableCache, ObservableParams, ObservableSet};
+pub use observable::{
+    CacheOutcome, ObservableCache, ObservableParams, ObservableSet, SampleProgress,
+};

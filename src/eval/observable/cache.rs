@@ -1,6 +1,6 @@
 //! The on-disk cache of observable sets.
 
-use super::{ObservableParams, ObservableSet};
+use super::{ObservableParams, ObservableSet, SampleProgress, Silent};
 use crate::config::CameraConfig;
 use crate::eval::GroundTruth;
 use crate::scene::Scene;
@@ -8,6 +8,7 @@ use crate::sensor::{DepthCamera, MeshBvh};
 use crate::util::fnv1a64;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// How a cached set was obtained (reported to the user).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -25,12 +26,23 @@ pub enum CacheOutcome {
 /// The on-disk cache of observable sets: one file per scene and relevant config, under a folder the
 /// user can see and clear. The folder is `$TENSORSCOUT_CACHE_DIR`, else `$XDG_CACHE_HOME/tensorscout`,
 /// else `~/.cache/tensorscout`; files live in its `observable/` subfolder.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct ObservableCache {
     dir: Option<PathBuf>,
     /// Say on stderr, before computing a set, that it is being computed (see
     /// [`ObservableCache::announcing`]).
     announce: bool,
+    /// Told how a computation of a set gets on (see [`ObservableCache::with_progress`]).
+    progress: Arc<dyn SampleProgress>,
+}
+
+impl std::fmt::Debug for ObservableCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ObservableCache")
+            .field("dir", &self.dir)
+            .field("announce", &self.announce)
+            .finish_non_exhaustive()
+    }
 }
 
 /// File layout: magic, key, voxel count, positions, word count, words (little-endian u64), then the
@@ -60,6 +72,7 @@ impl ObservableCache {
         ObservableCache {
             dir: base.map(|b| b.join("observable")),
             announce: false,
+            progress: Arc::new(Silent),
         }
     }
 
@@ -68,6 +81,7 @@ impl ObservableCache {
         ObservableCache {
             dir: Some(dir.into()),
             announce: false,
+            progress: Arc::new(Silent),
         }
     }
 
@@ -76,6 +90,7 @@ impl ObservableCache {
         ObservableCache {
             dir: None,
             announce: false,
+            progress: Arc::new(Silent),
         }
     }
 
@@ -85,6 +100,13 @@ impl ObservableCache {
     /// progress bar.
     pub fn announcing(mut self, on: bool) -> ObservableCache {
         self.announce = on;
+        self
+    }
+
+    /// This cache, telling `progress` how a computation of a set gets on (a read from the file
+    /// tells it nothing).
+    pub fn with_progress(mut self, progress: Arc<dyn SampleProgress>) -> ObservableCache {
+        self.progress = progress;
         self
     }
 
@@ -135,7 +157,13 @@ impl ObservableCache {
                      camera ({cached})"
                 );
             }
-            ObservableSet::compute(gt, bvh, &DepthCamera::new(camera), params)
+            ObservableSet::compute_with_progress(
+                gt,
+                bvh,
+                &DepthCamera::new(camera),
+                params,
+                self.progress.as_ref(),
+            )
         };
         let Some(dir) = &self.dir else {
             return (compute(), CacheOutcome::Uncached(None));

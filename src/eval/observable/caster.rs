@@ -4,7 +4,7 @@
 
 use super::sampling::{beyond_voxels, min_beyond_voxels};
 use super::sweep::{Ambiguous, ColumnRay, ColumnSetup, RayHits, SweepScratch};
-use super::GroundTruth;
+use super::{GroundTruth, SampleProgress};
 use crate::grid::GridSpec;
 use crate::map::occupancy::traverse_while;
 use crate::scene::VoxelTriangles;
@@ -211,13 +211,15 @@ pub(super) struct Frames {
 }
 
 impl VoxelCaster<'_> {
-    /// The observable bits by walking every ray through the voxels ([`VoxelCaster::observe`]).
+    /// The observable bits by walking every ray through the voxels ([`VoxelCaster::observe`]),
+    /// telling `progress` of each position done.
     pub(super) fn frames_by_rays(
         &self,
         positions: &[usize],
         yaws: &[(f32, f32)],
         camera: &DepthCamera,
         beyond: &[bool],
+        progress: &dyn SampleProgress,
     ) -> Frames {
         let grid = self.grid;
         let words = grid.voxels().div_ceil(64);
@@ -247,6 +249,7 @@ impl VoxelCaster<'_> {
                     if seen_beyond.len() >= min_beyond {
                         looked.push(cell);
                     }
+                    progress.sampled();
                     (bits, looked, buf, seen_beyond)
                 },
             )
@@ -270,12 +273,14 @@ impl VoxelCaster<'_> {
 
     /// The observable bits by sweeping pixel columns ([`VoxelCaster::sweep_column`]); a column the
     /// sweep cannot decide exactly is walked ray by ray. Per worker, a mask of layers per floor cell.
+    /// `progress` is told of each position done.
     pub(super) fn frames_by_columns(
         &self,
         positions: &[usize],
         yaws: &[(f32, f32)],
         camera: &DepthCamera,
         beyond: &[bool],
+        progress: &dyn SampleProgress,
     ) -> Frames {
         let grid = self.grid;
         let cells = grid.cells();
@@ -341,6 +346,7 @@ impl VoxelCaster<'_> {
                     if beyond_voxels(&mut sc.beyond, self.band_mask) >= min_beyond {
                         looked.push(cell);
                     }
+                    progress.sampled();
                     (seen, looked, sc, by_rays)
                 },
             )

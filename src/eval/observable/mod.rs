@@ -79,6 +79,26 @@ impl ObservableParams {
     }
 }
 
+/// Told how far the computation of an observable set has got, for a progress bar; called from the
+/// worker threads.
+pub trait SampleProgress: Send + Sync {
+    /// `positions` more camera positions are to be sampled (once per pass of the sampling).
+    fn add(&self, positions: usize);
+    /// One more camera position has been sampled.
+    fn sampled(&self);
+    /// The set is complete.
+    fn finished(&self);
+}
+
+/// Nobody to tell.
+pub(crate) struct Silent;
+
+impl SampleProgress for Silent {
+    fn add(&self, _: usize) {}
+    fn sampled(&self) {}
+    fn finished(&self) {}
+}
+
 impl ObservableSet {
     /// Samples the camera over the reachable region of `gt` (see the module doc).
     pub fn compute(
@@ -86,6 +106,17 @@ impl ObservableSet {
         bvh: &MeshBvh,
         camera: &DepthCamera,
         p: &ObservableParams,
+    ) -> ObservableSet {
+        Self::compute_with_progress(gt, bvh, camera, p, &Silent)
+    }
+
+    /// [`ObservableSet::compute`], telling `progress` of the positions to sample and done.
+    pub fn compute_with_progress(
+        gt: &GroundTruth,
+        bvh: &MeshBvh,
+        camera: &DepthCamera,
+        p: &ObservableParams,
+        progress: &dyn SampleProgress,
     ) -> ObservableSet {
         let grid = gt.grid;
         let band = gt.band_layers();
@@ -104,10 +135,11 @@ impl ObservableSet {
         let beyond = beyond_cells(gt);
         let sweep = caster.sweep_applies(camera);
         let frames = |positions: &[usize]| {
+            progress.add(positions.len());
             if sweep {
-                caster.frames_by_columns(positions, &yaws, camera, &beyond)
+                caster.frames_by_columns(positions, &yaws, camera, &beyond, progress)
             } else {
-                caster.frames_by_rays(positions, &yaws, camera, &beyond)
+                caster.frames_by_rays(positions, &yaws, camera, &beyond, progress)
             }
         };
         let first = frames(&coarse);
@@ -117,6 +149,7 @@ impl ObservableSet {
             let second = frames(&fine);
             bits.iter_mut().zip(&second.bits).for_each(|(a, b)| *a |= b);
         }
+        progress.finished();
         ObservableSet::from_bits(gt, bits, coarse.len() + fine.len())
     }
 

@@ -130,7 +130,7 @@ fn sweep_equals_rays(mesh: &crate::scene::TriMesh, spawn: Option<Pose2>, spacing
             (yaw.sin() as f32, yaw.cos() as f32)
         })
         .collect();
-    let rays = caster.frames_by_rays(&positions, &yaws, &camera, &beyond);
+    let rays = caster.frames_by_rays(&positions, &yaws, &camera, &beyond, &Silent);
     assert!(!positions.is_empty());
     let columns = positions.len() * yaws.len() * camera.image_size().0;
     // Voxels outside the band are dropped from the set (the walks differ there: the sweep does
@@ -139,7 +139,7 @@ fn sweep_equals_rays(mesh: &crate::scene::TriMesh, spawn: Option<Pose2>, spacing
     // On one thread and on two (the workers' shares of the positions differ).
     for threads in [1, 2] {
         let swept = crate::util::on_threads(threads, || {
-            caster.frames_by_columns(&positions, &yaws, &camera, &beyond)
+            caster.frames_by_columns(&positions, &yaws, &camera, &beyond, &Silent)
         });
         // The two ways agree on which positions looked beyond the reachable region, too.
         assert_eq!(rays.looked_beyond, swept.looked_beyond);
@@ -233,7 +233,7 @@ fn views_through_a_narrow_door_are_sampled_again_finer() {
         .collect();
     let k = lattice_cells(&grid, cfg.metrics.observable_spacing_m);
     let coarse = sample_positions(&grid, gt.reachable_mask(), k, |_, _| true);
-    let first = caster.frames_by_columns(&coarse, &yaws, &camera, &beyond);
+    let first = caster.frames_by_columns(&coarse, &yaws, &camera, &beyond, &Silent);
     // Some positions look into the closet through the door, and only those of the room's
     // eastern part (the closet is out of range of the rest).
     assert!(!first.looked_beyond.is_empty());
