@@ -97,24 +97,45 @@ impl CounterRng {
         }
     }
 
+    /// The key of counter `(a, b)`: every draw of that counter derives from it with one more mix
+    /// ([`CounterRng::uniform_of`]), so that many draws for one counter cost little.
+    #[inline]
+    pub fn key(&self, a: u64, b: u64) -> u64 {
+        splitmix64(splitmix64(self.key ^ a) ^ b)
+    }
+
     /// 64 random bits for counter `(a, b, c)`.
     #[inline]
     pub fn bits(&self, a: u64, b: u64, c: u64) -> u64 {
-        splitmix64(splitmix64(splitmix64(self.key ^ a) ^ b) ^ c)
+        Self::bits_of(self.key(a, b), c)
     }
 
-    /// Uniform in the open interval (0, 1) for counter `(a, b, c)`: 53 bits, never 0 or 1.
+    /// 64 random bits for draw `c` of a counter's `key` ([`CounterRng::key`]).
+    #[inline]
+    pub fn bits_of(key: u64, c: u64) -> u64 {
+        splitmix64(key ^ c.wrapping_mul(0xd1b5_4a32_d192_ed03))
+    }
+
+    /// Uniform in the open interval (0, 1) for draw `c` of a counter's `key`: 53 bits, never 0 or
+    /// 1.
+    #[inline]
+    pub fn uniform_of(key: u64, c: u64) -> f64 {
+        ((Self::bits_of(key, c) >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in the open interval (0, 1) for counter `(a, b, c)`.
     #[inline]
     pub fn uniform(&self, a: u64, b: u64, c: u64) -> f64 {
-        ((self.bits(a, b, c) >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
+        Self::uniform_of(self.key(a, b), c)
     }
 
     /// A standard normal draw for counter `(a, b, c)` by the Box–Muller transform of two uniforms
-    /// (counters `2c` and `2c + 1`).
+    /// (draws `2c` and `2c + 1`).
     #[inline]
     pub fn normal(&self, a: u64, b: u64, c: u64) -> f64 {
-        let u1 = self.uniform(a, b, 2 * c);
-        let u2 = self.uniform(a, b, 2 * c + 1);
+        let key = self.key(a, b);
+        let u1 = Self::uniform_of(key, 2 * c);
+        let u2 = Self::uniform_of(key, 2 * c + 1);
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 }

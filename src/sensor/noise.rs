@@ -106,7 +106,7 @@ impl DepthNoise {
         let noisy = |(i, r): (usize, &mut f32)| *r = this.pixel(dirs, axis, w, h, i, step);
         if rayon::current_num_threads() > 1 {
             (frame.range.par_iter_mut().enumerate())
-                .with_min_len(1024)
+                .with_min_len(4096)
                 .for_each(noisy);
         } else {
             frame.range.iter_mut().enumerate().for_each(noisy);
@@ -128,8 +128,9 @@ impl DepthNoise {
         if exact.is_nan() {
             return f32::NAN;
         }
-        let draw = |channel: u64| self.rng.uniform(step, i as u64, channel);
-        let normal = |channel: u64| self.rng.normal(step, i as u64, channel);
+        // One key per pixel; each draw from it costs one mix: 0 dropout, 1–2 lateral, 3–4 axial.
+        let key = self.rng.key(step, i as u64);
+        let draw = |k: u64| CounterRng::uniform_of(key, k);
         if exact.is_infinite() {
             return if draw(0) < c.dropout {
                 f32::NAN
@@ -145,25 +146,36 @@ impl DepthNoise {
         if draw(0) < p_drop {
             return f32::NAN;
         }
-        // Lateral error: where the pixel samples the scene, in this camera's pixels.
+        // Lateral error: where the pixel samples the scene, in this camera's pixels, a Box–Muller
+        // pair (σ r cos φ, σ r sin φ). Neither rounds away from 0 while σ r < 0.5, that is while
+        // u₁ > exp(−1/(8σ²)): the common case at this camera's coarse pixels, decided without the
+        // logarithm (the same draws either way).
         let t = theta.min(MAX_THETA);
         let sigma_l =
             (c.lateral_px + c.lateral_angle_px * t / (FRAC_PI_2 - t)) * self.focal_px / c.focal_px;
-        let shift = |v: usize, n: usize, z: f64| {
-            (v as f64 + (sigma_l * z).round()).clamp(0.0, (n - 1) as f64) as usize
+        let u1 = draw(1);
+        let j = if sigma_l <= 0.0 || u1 > (-0.125 / (sigma_l * sigma_l)).exp() {
+            i
+        } else {
+            let r = sigma_l * (-2.0 * u1.ln()).sqrt();
+            let (sin, cos) = (std::f64::consts::TAU * draw(2)).sin_cos();
+            let shift = |v: usize, n: usize, d: f64| {
+                (v as f64 + d.round()).clamp(0.0, (n - 1) as f64) as usize
+            };
+            shift(row, h, r * sin) * w + shift(col, w, r * cos)
         };
-        let j = shift(row, h, normal(2)) * w + shift(col, w, normal(1));
         let sampled = self.exact[j];
         if !sampled.is_finite() {
             return sampled;
         }
         let z = f64::from(sampled * dirs[j].dot(&axis));
+        let normal = (-2.0 * draw(3).ln()).sqrt() * (std::f64::consts::TAU * draw(4)).cos();
         let z_noisy = match c.model {
             DepthNoiseModel::None => z,
-            DepthNoiseModel::Kinect => z + self.sigma_z(z, theta) * normal(3),
+            DepthNoiseModel::Kinect => z + self.sigma_z(z, theta) * normal,
             DepthNoiseModel::Stereo => {
                 let fb = c.focal_px * c.baseline_m;
-                let mut d = fb / z + c.subpixel_px * normal(3);
+                let mut d = fb / z + c.subpixel_px * normal;
                 if c.disparity_step_px > 0.0 {
                     d = (d / c.disparity_step_px).round() * c.disparity_step_px;
                 }
