@@ -32,13 +32,16 @@ fn mean_ci(v: &[f64]) -> (f64, f64) {
 /// The results of one bench folder, and how many of its rows failed.
 fn read(dir: &Path) -> (Vec<RunResult>, usize) {
     let path = dir.join("results.jsonl");
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut ok = Vec::new();
     let mut failed = 0;
     for line in text.lines().filter(|l| !l.trim().is_empty()) {
         let row: serde_json::Value = serde_json::from_str(line).expect("a JSON row");
-        match row.get("result").cloned().map(serde_json::from_value::<RunResult>) {
+        match row
+            .get("result")
+            .cloned()
+            .map(serde_json::from_value::<RunResult>)
+        {
             Some(Ok(r)) if r.termination != tensorscout::sim::Termination::Error => ok.push(r),
             _ => failed += 1,
         }
@@ -145,11 +148,16 @@ fn main() {
             println!("| {label} | (failed rows) | {failed} | | | | | | | | | |");
         }
     }
-    draw(&out, &levels.iter().map(|l| l.0.clone()).collect::<Vec<_>>(), &planners, &cells)
-        .unwrap_or_else(|e| {
-            eprintln!("{}: {e}", out.display());
-            std::process::exit(1);
-        });
+    draw(
+        &out,
+        &levels.iter().map(|l| l.0.clone()).collect::<Vec<_>>(),
+        &planners,
+        &cells,
+    )
+    .unwrap_or_else(|e| {
+        eprintln!("{}: {e}", out.display());
+        std::process::exit(1);
+    });
 }
 
 const COLOURS: [RGBColor; 4] = [
@@ -171,84 +179,87 @@ fn draw(
     let (w, h) = (1400u32, 560u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
-    let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let panels = root.split_evenly((1, 2));
-    type Pick = fn(&Cell) -> (f64, f64);
-    let metrics: [(&str, Pick); 2] = [
-        ("completeness", |c| c.completeness),
-        ("collisions per run", |c| c.collisions),
-    ];
-    let n = levels.len();
-    for (panel, (name, pick)) in panels.iter().zip(metrics) {
-        let hi = cells
-            .values()
-            .map(|c| pick(c).0 + pick(c).1)
-            .fold(0.0f64, f64::max);
-        let (y0, y1) = if name == "completeness" {
-            let lo = cells
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let panels = root.split_evenly((1, 2));
+        type Pick = fn(&Cell) -> (f64, f64);
+        let metrics: [(&str, Pick); 2] = [
+            ("completeness", |c| c.completeness),
+            ("collisions per run", |c| c.collisions),
+        ];
+        let n = levels.len();
+        for (panel, (name, pick)) in panels.iter().zip(metrics) {
+            let hi = cells
                 .values()
-                .map(|c| pick(c).0 - pick(c).1)
-                .fold(1.0f64, f64::min);
-            ((lo - 0.05).max(0.0), 1.0)
-        } else {
-            (0.0, (hi * 1.15).max(1.0))
-        };
-        let mut chart = ChartBuilder::on(panel)
-            .caption(format!("{name} against noise"), ("sans-serif", 26))
-            .margin(16)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_labels(n)
-            .x_label_formatter(&|x| {
-                let k = x.round();
-                if (x - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < n {
-                    levels[k as usize].clone()
-                } else {
-                    String::new()
-                }
-            })
-            .x_desc("noise level")
-            .y_desc(name)
-            .label_style(("sans-serif", 18))
-            .axis_desc_style(("sans-serif", 20))
-            .draw()?;
-        for (i, p) in planners.iter().enumerate() {
-            let colour = COLOURS[i % COLOURS.len()];
-            // Planners side by side at each level, so that their bars do not hide each other.
-            let dx = (i as f64 - (planners.len() as f64 - 1.0) / 2.0) * 0.06;
-            let pts: Vec<(f64, (f64, f64))> = (0..n)
-                .filter_map(|k| cells.get(&(k, p.clone())).map(|c| (k as f64 + dx, pick(c))))
-                .collect();
+                .map(|c| pick(c).0 + pick(c).1)
+                .fold(0.0f64, f64::max);
+            let (y0, y1) = if name == "completeness" {
+                let lo = cells
+                    .values()
+                    .map(|c| pick(c).0 - pick(c).1)
+                    .fold(1.0f64, f64::min);
+                ((lo - 0.05).max(0.0), 1.0)
+            } else {
+                (0.0, (hi * 1.15).max(1.0))
+            };
+            let mut chart = ChartBuilder::on(panel)
+                .caption(format!("{name} against noise"), ("sans-serif", 26))
+                .margin(16)
+                .x_label_area_size(50)
+                .y_label_area_size(70)
+                .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), y0..y1)?;
             chart
-                .draw_series(LineSeries::new(
-                    pts.iter().map(|(x, v)| (*x, v.0)),
-                    colour.stroke_width(3),
-                ))?
-                .label(p.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
-                });
-            chart.draw_series(pts.iter().map(|(x, v)| {
-                PathElement::new(vec![(*x, v.0 - v.1), (*x, v.0 + v.1)], colour.stroke_width(2))
-            }))?;
-            chart.draw_series(
-                pts.iter()
-                    .map(|(x, v)| Circle::new((*x, v.0), 5, colour.filled())),
-            )?;
+                .configure_mesh()
+                .x_labels(n)
+                .x_label_formatter(&|x| {
+                    let k = x.round();
+                    if (x - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < n {
+                        levels[k as usize].clone()
+                    } else {
+                        String::new()
+                    }
+                })
+                .x_desc("noise level")
+                .y_desc(name)
+                .label_style(("sans-serif", 18))
+                .axis_desc_style(("sans-serif", 20))
+                .draw()?;
+            for (i, p) in planners.iter().enumerate() {
+                let colour = COLOURS[i % COLOURS.len()];
+                // Planners side by side at each level, so that their bars do not hide each other.
+                let dx = (i as f64 - (planners.len() as f64 - 1.0) / 2.0) * 0.06;
+                let pts: Vec<(f64, (f64, f64))> = (0..n)
+                    .filter_map(|k| cells.get(&(k, p.clone())).map(|c| (k as f64 + dx, pick(c))))
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(
+                        pts.iter().map(|(x, v)| (*x, v.0)),
+                        colour.stroke_width(3),
+                    ))?
+                    .label(p.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
+                    });
+                chart.draw_series(pts.iter().map(|(x, v)| {
+                    PathElement::new(
+                        vec![(*x, v.0 - v.1), (*x, v.0 + v.1)],
+                        colour.stroke_width(2),
+                    )
+                }))?;
+                chart.draw_series(
+                    pts.iter()
+                        .map(|(x, v)| Circle::new((*x, v.0), 5, colour.filled())),
+                )?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .label_font(("sans-serif", 18))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .label_font(("sans-serif", 18))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
-    }
-    root.present()?;
+        root.present()?;
     }
     image::RgbImage::from_raw(w, h, buf)
         .ok_or("bad image buffer")?

@@ -326,7 +326,11 @@ mod tests {
             (1e-10, -6.361_340_902_404_056),
             (0.999, 3.090_232_306_167_813_5),
         ] {
-            assert!((normal_quantile(p) - x).abs() < 1e-9, "{p}: {}", normal_quantile(p));
+            assert!(
+                (normal_quantile(p) - x).abs() < 1e-9,
+                "{p}: {}",
+                normal_quantile(p)
+            );
         }
     }
 

@@ -144,7 +144,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         check_output(&dir.join(scene::rosmap::MAP_YAML), args.force, Some("yaml"))?;
         check_output(&dir.join(scene::rosmap::MAP_PGM), args.force, Some("pgm"))?;
     }
-    for file in [&args.trajectory, &args.trajectory_true].into_iter().flatten() {
+    for file in [&args.trajectory, &args.trajectory_true]
+        .into_iter()
+        .flatten()
+    {
         check_output(file, args.force, None)?;
     }
     let map_files = args.map_out.as_ref().map(|d| {

@@ -160,7 +160,13 @@ pub fn tf_message(
     };
     let mut transforms = vec![
         on_floor("world", "base_link", pose),
-        transform(time_s, "base_link", "camera", [0.0, 0.0, camera.mount_height_m.get()], OPTICAL_ROTATION),
+        transform(
+            time_s,
+            "base_link",
+            "camera",
+            [0.0, 0.0, camera.mount_height_m.get()],
+            OPTICAL_ROTATION,
+        ),
     ];
     if let Some(t) = true_pose {
         transforms.push(on_floor("world", "base_link_true", t));

@@ -185,7 +185,8 @@ impl DepthNoise {
         let (col, row) = (i % w, i / w);
         let (theta, edge) = self.incidence(dirs, w, h, col, row);
         let grazing = ((theta - self.grazing.0) / self.grazing.1).clamp(0.0, 1.0);
-        let p_drop = c.dropout + c.grazing_dropout * grazing + if edge { c.edge_dropout } else { 0.0 };
+        let p_drop =
+            c.dropout + c.grazing_dropout * grazing + if edge { c.edge_dropout } else { 0.0 };
         if draw(0) < p_drop {
             return f32::NAN;
         }
@@ -392,8 +393,12 @@ mod tests {
             nalgebra::Point3::new(p.x, p.y, zz)
         };
         let base = mesh.vertices.len() as u32;
-        mesh.vertices
-            .extend([v(-20.0, -20.0), v(20.0, -20.0), v(20.0, 20.0), v(-20.0, 20.0)]);
+        mesh.vertices.extend([
+            v(-20.0, -20.0),
+            v(20.0, -20.0),
+            v(20.0, 20.0),
+            v(-20.0, 20.0),
+        ]);
         mesh.triangles
             .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
         let bvh = MeshBvh::new(&mesh).unwrap();

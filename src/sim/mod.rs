@@ -10,7 +10,7 @@ pub(crate) mod run;
 
 pub use crate::eval::{CacheOutcome, ObservableCache, ObservableSet};
 pub use clock::{Stage, StageClock};
-pub use result::{CurveSample, RunResult, StageStats, Termination, STAGES};
 pub use odometry::{ate, Delta, Odometry};
+pub use result::{CurveSample, RunResult, StageStats, Termination, STAGES};
 pub use robot::Command;
 pub use run::{run, NoObserver, Observer, RunOutput, Simulation, StepOutcome, StepView, World};

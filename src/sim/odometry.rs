@@ -74,7 +74,11 @@ impl Delta {
 
     /// Standard deviations of the three parts' errors under `alpha` (Thrun et al., Table 5.6).
     pub fn sigmas(self, alpha: &[f64; 4]) -> [f64; 3] {
-        let (r1, t, r2) = (self.rot1 * self.rot1, self.trans * self.trans, self.rot2 * self.rot2);
+        let (r1, t, r2) = (
+            self.rot1 * self.rot1,
+            self.trans * self.trans,
+            self.rot2 * self.rot2,
+        );
         [
             (alpha[0] * r1 + alpha[1] * t).sqrt(),
             (alpha[2] * t + alpha[3] * (r1 + r2)).sqrt(),
@@ -139,7 +143,9 @@ impl Odometry {
             },
         };
         Some(Odometry {
-            motion: m.enabled.then_some([m.alpha1, m.alpha2, m.alpha3, m.alpha4]),
+            motion: m
+                .enabled
+                .then_some([m.alpha1, m.alpha2, m.alpha3, m.alpha4]),
             motion_rng: CounterRng::new(cfg.seed, MOTION_STREAM),
             estimator,
             pose_rng: CounterRng::new(cfg.seed, POSE_STREAM),
@@ -177,7 +183,11 @@ impl Odometry {
                 for (k, e) in error.iter_mut().enumerate() {
                     *e = *rho * *e + sigma[k] * kick * rng.normal(step, 1, k as u64);
                 }
-                self.estimate = Pose2::new(to.x + error[0], to.y + error[1], wrap_angle(to.yaw + error[2]));
+                self.estimate = Pose2::new(
+                    to.x + error[0],
+                    to.y + error[1],
+                    wrap_angle(to.yaw + error[2]),
+                );
             }
         }
     }
@@ -295,7 +305,11 @@ mod tests {
         assert!(m_along.abs() < 0.1 * sd_along, "{m_along}");
         // Heading: two turns a step, each of variance α₂ d².
         let (_, sd_heading) = moments(&heading);
-        within(sd_heading, (2.0 * nf * alpha[1] * d * d).sqrt(), "heading σ");
+        within(
+            sd_heading,
+            (2.0 * nf * alpha[1] * d * d).sqrt(),
+            "heading σ",
+        );
     }
 
     /// The localized estimate's error is stationary with the set standard deviation and time

@@ -6,11 +6,11 @@ use super::odometry::{ate, Odometry};
 use super::result::{CurveSample, RunResult, Termination};
 use super::robot::{Command, Robot};
 use crate::config::{Config, DepthRenderer, SpawnMode};
+use crate::eval::map_quality;
 use crate::eval::{
     frontiers_left, surface_coverage, unseen_patches, CacheOutcome, ExploredVolume, GroundTruth,
     ObservableCache, ObservableParams, ObservableSet,
 };
-use crate::eval::map_quality;
 use crate::field::TensorField;
 use crate::map::Map;
 use crate::plan::search::Search;
