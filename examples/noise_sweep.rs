@@ -253,7 +253,7 @@ fn draw(
             }
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::LowerLeft)
+                .position(SeriesLabelPosition::MiddleLeft)
                 .label_font(("sans-serif", 18))
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)
