@@ -40,7 +40,7 @@ use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
 
 /// The stream of the run's counter generator that depth noise draws from.
-const DEPTH_STREAM: u64 = 0x6465_7074_68;
+const DEPTH_STREAM: u64 = 0x0064_6570_7468;
 
 /// The largest incidence angle the formulas take, radians (85°): the angle terms grow without
 /// bound towards 90°, and Nguyen et al. measured up to about 80°.

@@ -282,8 +282,10 @@ mod tests {
         let mut along = Vec::new();
         let mut heading = Vec::new();
         for seed in 0..4_000u64 {
-            let mut cfg = Config::default();
-            cfg.seed = seed;
+            let mut cfg = Config {
+                seed,
+                ..Config::default()
+            };
             cfg.noise.pose.model = PoseModel::Odometry;
             let p = &mut cfg.noise.pose;
             (p.alpha1, p.alpha2, p.alpha3, p.alpha4) = (alpha[0], alpha[1], alpha[2], alpha[3]);
