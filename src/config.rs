@@ -131,6 +131,7 @@ pub struct Config {
     pub additions: Additions,
     pub log: LogConfig,
     pub metrics: MetricsConfig,
+    pub noise: NoiseConfig,
 }
 
 /// Which set of rules a run follows: a name for a set of config values, never a second code path.
@@ -188,6 +189,104 @@ pub struct Additions {
 pub struct MetricsConfig {
     pub observable_spacing_m: f64,
     pub observable_yaws: usize,
+}
+
+/// Sensor and odometry error (see `sensor::noise` and `sim::odometry`); all off by default, and
+/// with all off a run is the same, bit for bit, as without the section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseConfig {
+    pub depth: DepthNoiseConfig,
+    pub pose: PoseNoiseConfig,
+    pub motion: MotionNoiseConfig,
+}
+
+impl NoiseConfig {
+    /// Whether the robot's pose can differ from the commanded or believed one (actuation noise or a
+    /// pose estimate): the runs that report pose error and log the true pose beside the estimate.
+    pub fn pose_is_noisy(&self) -> bool {
+        self.motion.enabled || self.pose.model != PoseModel::None
+    }
+
+    /// Whether any noise is on: the runs that report map quality against the ground truth.
+    pub fn any(&self) -> bool {
+        self.depth.model != DepthNoiseModel::None || self.pose_is_noisy()
+    }
+}
+
+/// The depth camera's error model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthNoiseModel {
+    /// Exact depth.
+    None,
+    /// Structured light (Kinect v1): axial error growing with (z − z₀)², after Nguyen, Izadi and
+    /// Lovell 2012.
+    Kinect,
+    /// Active stereo (RealSense D400): Gaussian disparity error, depth error z² · σ_d / (f · B),
+    /// and quantised disparity.
+    Stereo,
+}
+
+/// `[noise.depth]`: what each key means is in `configs/default.toml` and `sensor::noise`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepthNoiseConfig {
+    pub model: DepthNoiseModel,
+    pub axial_base_m: f64,
+    pub axial_quadratic_per_m: f64,
+    pub axial_offset_m: f64,
+    pub axial_angle_m: f64,
+    pub lateral_px: f64,
+    pub lateral_angle_px: f64,
+    pub focal_px: f64,
+    pub baseline_m: f64,
+    pub subpixel_px: f64,
+    pub disparity_step_px: f64,
+    pub dropout: f64,
+    pub grazing_dropout: f64,
+    pub grazing_start_deg: f64,
+    pub edge_dropout: f64,
+    pub edge_jump: f64,
+}
+
+/// How the robot knows its pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PoseModel {
+    /// The true pose.
+    None,
+    /// Dead reckoning: the measured motion of each step, with the odometry motion model's error,
+    /// added up; the error grows without bound.
+    Odometry,
+    /// A localisation system's estimate: the truth plus an error that wanders and is pulled back
+    /// (an Ornstein–Uhlenbeck process) with a set standard deviation and time constant.
+    Localized,
+}
+
+/// `[noise.pose]`: the robot's pose estimate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseNoiseConfig {
+    pub model: PoseModel,
+    pub alpha1: f64,
+    pub alpha2: f64,
+    pub alpha3: f64,
+    pub alpha4: f64,
+    pub sigma_xy_m: f64,
+    pub sigma_yaw_rad: f64,
+    pub time_constant_s: f64,
+}
+
+/// `[noise.motion]`: the executed motion differs from the commanded one.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionNoiseConfig {
+    pub enabled: bool,
+    pub alpha1: f64,
+    pub alpha2: f64,
+    pub alpha3: f64,
+    pub alpha4: f64,
 }
 
 /// Where a run starts.
@@ -589,6 +688,32 @@ const BOUNDS: &[Bound] = &[
     b("log.chunk_size_kb", Count, 1.0, 65_536.0),
     b("metrics.observable_spacing_m", Closed, 0.01, 10.0),
     b("metrics.observable_yaws", Count, 1.0, 64.0),
+    b("noise.depth.axial_base_m", Closed, 0.0, 1.0),
+    b("noise.depth.axial_quadratic_per_m", Closed, 0.0, 1.0),
+    b("noise.depth.axial_offset_m", Closed, 0.0, 10.0),
+    b("noise.depth.axial_angle_m", Closed, 0.0, 1.0),
+    b("noise.depth.lateral_px", Closed, 0.0, 100.0),
+    b("noise.depth.lateral_angle_px", Closed, 0.0, 100.0),
+    b("noise.depth.focal_px", AboveTo, 0.0, 100_000.0),
+    b("noise.depth.baseline_m", AboveTo, 0.0, 10.0),
+    b("noise.depth.subpixel_px", Closed, 0.0, 100.0),
+    b("noise.depth.disparity_step_px", Closed, 0.0, 100.0),
+    b("noise.depth.dropout", Closed, 0.0, 1.0),
+    b("noise.depth.grazing_dropout", Closed, 0.0, 1.0),
+    b("noise.depth.grazing_start_deg", FromBelow, 0.0, 90.0),
+    b("noise.depth.edge_dropout", Closed, 0.0, 1.0),
+    b("noise.depth.edge_jump", AboveTo, 0.0, 100.0),
+    b("noise.pose.alpha1", Closed, 0.0, 1.0),
+    b("noise.pose.alpha2", Closed, 0.0, 1.0),
+    b("noise.pose.alpha3", Closed, 0.0, 1.0),
+    b("noise.pose.alpha4", Closed, 0.0, 1.0),
+    b("noise.pose.sigma_xy_m", Closed, 0.0, 10.0),
+    b("noise.pose.sigma_yaw_rad", Closed, 0.0, 1.0),
+    b("noise.pose.time_constant_s", AboveTo, 0.0, 1e6),
+    b("noise.motion.alpha1", Closed, 0.0, 1.0),
+    b("noise.motion.alpha2", Closed, 0.0, 1.0),
+    b("noise.motion.alpha3", Closed, 0.0, 1.0),
+    b("noise.motion.alpha4", Closed, 0.0, 1.0),
 ];
 
 impl Bound {
@@ -642,15 +767,14 @@ impl Bound {
     }
 }
 
-/// The value at dotted `key` of a config tree.
+/// The value at dotted `key` of a config tree (sections may nest: `noise.depth.dropout`).
 fn value_at<'a>(tree: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
-    let (section, name) = key.rsplit_once('.').unwrap_or(("", key));
-    let table = if section.is_empty() {
-        tree
-    } else {
-        tree.get(section)?.as_table()?
-    };
-    table.get(name)
+    let mut parts = key.split('.');
+    let mut value = tree.get(parts.next()?)?;
+    for part in parts {
+        value = value.as_table()?.get(part)?;
+    }
+    Some(value)
 }
 
 impl MapConfig {

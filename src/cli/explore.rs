@@ -57,9 +57,15 @@ pub struct ExploreArgs {
     /// trinary `map.pgm` (free 254, obstacle 0, unknown 205) at the map's resolution and origin.
     #[arg(long, value_name = "DIR")]
     map_out: Option<PathBuf>,
-    /// Write the robot's trajectory to this file in TUM format (`t x y z qx qy qz qw` a line).
+    /// Write the robot's trajectory to this file in TUM format (`t x y z qx qy qz qw` a line): the
+    /// pose as the robot estimated it, which is the true one unless [noise.pose] or
+    /// [noise.motion] is on.
     #[arg(long, value_name = "FILE")]
     trajectory: Option<PathBuf>,
+    /// Write the true trajectory to this file in TUM format, to compare with --trajectory's
+    /// estimate (`evo_ape tum TRUE EST`).
+    #[arg(long, value_name = "FILE")]
+    trajectory_true: Option<PathBuf>,
     /// Print exactly one JSON object with every metric on stdout.
     #[arg(long)]
     json: bool,
@@ -138,7 +144,10 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         check_output(&dir.join(scene::rosmap::MAP_YAML), args.force, Some("yaml"))?;
         check_output(&dir.join(scene::rosmap::MAP_PGM), args.force, Some("pgm"))?;
     }
-    if let Some(file) = &args.trajectory {
+    for file in [&args.trajectory, &args.trajectory_true]
+        .into_iter()
+        .flatten()
+    {
         check_output(file, args.force, None)?;
     }
     let map_files = args.map_out.as_ref().map(|d| {
@@ -151,6 +160,7 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         ("--png", &args.png),
         ("--log", &args.log),
         ("--trajectory", &args.trajectory),
+        ("--trajectory-true", &args.trajectory_true),
     ]
     .into_iter()
     .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
@@ -320,6 +330,16 @@ pub fn run(args: ExploreArgs) -> Result<()> {
             r.sim_time_s, r.wall_time_s, r.real_time_factor
         )?;
         writeln!(text, "collisions     {}", r.collisions)?;
+        if let (Some(p), Some(rc), Some(f)) = (r.map_precision, r.map_recall, r.free_but_occupied) {
+            writeln!(
+                text,
+                "map quality    precision {p:.3}  recall {rc:.3}  known free but occupied {:.2} %",
+                100.0 * f
+            )?;
+        }
+        if let (Some(rmse), Some(max)) = (r.ate_rmse_m, r.ate_max_m) {
+            writeln!(text, "pose error     ATE {rmse:.3} m RMSE, {max:.3} m max")?;
+        }
         for (stage, s) in &r.timings_ms {
             writeln!(
                 text,
@@ -338,9 +358,15 @@ pub fn run(args: ExploreArgs) -> Result<()> {
         write_file(&dir.join(rosmap::MAP_PGM), pgm.as_slice())?;
         write_file(&dir.join(rosmap::MAP_YAML), yaml.as_bytes())?;
     }
-    if let Some(file) = &args.trajectory {
-        let text = tensorscout::log::tum::tum_text(&output.trajectory, cfg.sim.dt_s);
-        write_file(file, text.as_bytes())?;
+    let tum = [
+        (&args.trajectory, &output.estimated_trajectory),
+        (&args.trajectory_true, &output.trajectory),
+    ];
+    for (file, poses) in tum {
+        if let Some(file) = file {
+            let text = tensorscout::log::tum::tum_text(poses, cfg.sim.dt_s);
+            write_file(file, text.as_bytes())?;
+        }
     }
     if let Some(e) = &r.error {
         return Err(tensorscout::Error::Runtime(e.clone()).into());

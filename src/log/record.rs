@@ -67,6 +67,9 @@ pub struct Recorder<S: Sink> {
     scene: Option<Value>,
     /// The travelled trajectory, simplified (see [`Trajectory`]).
     trajectory: Trajectory,
+    /// Whether `/tf` carries the true pose beside the estimate (`[noise.pose]` or
+    /// `[noise.motion]` on).
+    true_frame: bool,
 }
 
 impl<S: Sink> Recorder<S> {
@@ -86,6 +89,7 @@ impl<S: Sink> Recorder<S> {
             robot_height_m: cfg.robot.height_m,
             scene: Some(scene_message(0.0, mesh)),
             trajectory: Trajectory::default(),
+            true_frame: cfg.noise.pose_is_noisy(),
         }
     }
 
@@ -94,10 +98,12 @@ impl<S: Sink> Recorder<S> {
         self.sink.put(topic, time_ns(time_s), bytes);
     }
 
-    /// `/robot/pose` and `/tf` at `time_s`, and the pose appended to the trajectory.
-    fn put_pose(&mut self, time_s: f64, pose: Pose2) {
+    /// `/robot/pose` and `/tf` at `time_s` (with the true pose when the run has pose or motion
+    /// noise), and the pose appended to the trajectory.
+    fn put_pose(&mut self, time_s: f64, pose: Pose2, true_pose: Pose2) {
         self.put(&topics::POSE, time_s, &pose_message(time_s, pose));
-        let tf = tf_message(time_s, pose, &self.camera);
+        let true_pose = self.true_frame.then_some(true_pose);
+        let tf = tf_message(time_s, pose, true_pose, &self.camera);
         self.put(&topics::TF, time_s, &tf);
         self.trajectory.push([pose.x, pose.y]);
     }
@@ -137,15 +143,35 @@ fn transform(time_s: f64, parent: &str, child: &str, t: [f64; 3], q: [f64; 4]) -
     })
 }
 
-/// `/tf`: `world → base_link` (the robot on the floor) and the fixed `base_link → camera` (the
-/// optical frame at the mount height). The fixed transform is repeated in every message so that a
-/// viewer that seeks (and reads back only the latest `/tf`) still has the whole tree.
-pub fn tf_message(time_s: f64, pose: Pose2, camera: &CameraConfig) -> Value {
-    let (s, c) = (pose.yaw / 2.0).sin_cos();
-    json!({"transforms": [
-        transform(time_s, "world", "base_link", [pose.x, pose.y, 0.0], [0.0, 0.0, s, c]),
-        transform(time_s, "base_link", "camera", [0.0, 0.0, camera.mount_height_m.get()], OPTICAL_ROTATION),
-    ]})
+/// `/tf`: `world → base_link` (the robot on the floor, where it believes it is) and the fixed
+/// `base_link → camera` (the optical frame at the mount height); with pose or motion noise also
+/// `world → base_link_true`, the true pose, so that a viewer shows the drift. The fixed transform
+/// is repeated in every message so that a viewer that seeks (and reads back only the latest `/tf`)
+/// still has the whole tree.
+pub fn tf_message(
+    time_s: f64,
+    pose: Pose2,
+    true_pose: Option<Pose2>,
+    camera: &CameraConfig,
+) -> Value {
+    let on_floor = |parent: &str, child: &str, p: Pose2| {
+        let (s, c) = (p.yaw / 2.0).sin_cos();
+        transform(time_s, parent, child, [p.x, p.y, 0.0], [0.0, 0.0, s, c])
+    };
+    let mut transforms = vec![
+        on_floor("world", "base_link", pose),
+        transform(
+            time_s,
+            "base_link",
+            "camera",
+            [0.0, 0.0, camera.mount_height_m.get()],
+            OPTICAL_ROTATION,
+        ),
+    ];
+    if let Some(t) = true_pose {
+        transforms.push(on_floor("world", "base_link_true", t));
+    }
+    json!({ "transforms": transforms })
 }
 
 /// The pinhole intrinsics `(fx, fy, cx, cy)` of the depth camera, pixels, with pixel centres at
@@ -520,7 +546,7 @@ impl<S: Sink> Observer for Recorder<S> {
             self.put(&topics::SCENE, sensed, &scene);
             let footprint = footprint_message(sensed, self.robot_radius_m, self.robot_height_m);
             self.put(&topics::ROBOT, sensed, &footprint);
-            self.put_pose(sensed, view.sensed_pose);
+            self.put_pose(sensed, view.sensed_pose, view.sensed_true_pose);
         }
         if let Some(frame) = view.frame {
             let n = self.cfg.depth_every_n;
@@ -561,7 +587,7 @@ impl<S: Sink> Observer for Recorder<S> {
                 self.next_key_frame_s += self.cfg.map_every_s;
             }
         }
-        self.put_pose(view.time_s, view.pose);
+        self.put_pose(view.time_s, view.pose, view.true_pose);
         if key_frame {
             let trajectory = trajectory_message(view.time_s, &self.trajectory);
             self.put(&topics::TRAJECTORY, view.time_s, &trajectory);

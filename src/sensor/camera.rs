@@ -194,6 +194,17 @@ impl DepthCamera {
     }
 }
 
+impl DepthCamera {
+    /// Moves `frame` to `pose`, keeping its ranges: the frame as the robot believes it was taken,
+    /// from its estimated pose, where the map integrates it.
+    pub fn repose(&self, pose: Pose2, frame: &mut DepthFrame) {
+        let (_, sin, cos) = self.start_frame(pose, frame);
+        (frame.dirs.iter_mut())
+            .zip(&self.cam_dirs)
+            .for_each(|(dir, c)| *dir = world_dir(cos, sin, c));
+    }
+}
+
 /// A camera-frame direction in the world, for a robot heading `(cos, sin)`: yaw only, a rotation
 /// about z. The one formula both the caster and the rasteriser use, so their rays are the same.
 #[inline(always)]

@@ -166,6 +166,24 @@ pub struct RunResult {
     pub version: String,
     pub config_hash: String,
     pub curve: Vec<CurveSample>,
+    /// With any `[noise]` on: share of the map's occupied band voxels with a truly occupied voxel
+    /// within one voxel (see [`crate::eval::MapQuality`]). Absent in noise-free runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub map_precision: Option<f64>,
+    /// With any `[noise]` on: share of the observable surface voxels with an occupied map voxel
+    /// within one voxel.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub map_recall: Option<f64>,
+    /// With any `[noise]` on: share of the map's known-free band voxels that are truly occupied.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub free_but_occupied: Option<f64>,
+    /// With pose or motion noise on: the absolute trajectory error of the estimated against the
+    /// true trajectory (position, no alignment), root mean square, metres.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub ate_rmse_m: Option<f64>,
+    /// With pose or motion noise on: the largest position error of the estimate, metres.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub ate_max_m: Option<f64>,
 }
 
 #[cfg(test)]

@@ -2,9 +2,11 @@
 
 use super::clock::{Stage, StageClock};
 use super::motion::{MotionExecutor, MotionParams, MotionStatus};
+use super::odometry::{ate, Odometry};
 use super::result::{CurveSample, RunResult, Termination};
 use super::robot::{Command, Robot};
 use crate::config::{Config, DepthRenderer, SpawnMode};
+use crate::eval::map_quality;
 use crate::eval::{
     frontiers_left, surface_coverage, unseen_patches, CacheOutcome, ExploredVolume, GroundTruth,
     ObservableCache, ObservableParams, ObservableSet,
@@ -14,7 +16,7 @@ use crate::map::Map;
 use crate::plan::search::Search;
 use crate::plan::{Action, Plan, PlanContext, PlanParams, Planner, PlannerKind};
 use crate::scene::Scene;
-use crate::sensor::{DepthCamera, DepthFrame, MeshBvh, MeshRaster};
+use crate::sensor::{DepthCamera, DepthFrame, DepthNoise, MeshBvh, MeshRaster};
 use crate::{Pose2, Result};
 use nalgebra::Point2;
 use rand::{Rng, SeedableRng};
@@ -28,13 +30,18 @@ pub struct StepView<'a> {
     /// Simulated time at the end of the step: the time of `pose` and of the metrics.
     pub time_s: f64,
     pub budget_s: f64,
-    /// The robot's pose at `time_s`, after this step's motion.
+    /// The robot's pose at `time_s`, after this step's motion, as the robot knows it (its estimate
+    /// with `[noise.pose]`; the map is built in this frame).
     pub pose: Pose2,
+    /// The true pose at `time_s` (`pose` unless pose or motion noise is on).
+    pub true_pose: Pose2,
     /// Simulated time at the start of the step, when `frame` was rendered and `map` and `field`
     /// were last updated: what a log stamps them with.
     pub sensed_time_s: f64,
-    /// The pose at `sensed_time_s`, the one `frame` was rendered from.
+    /// The estimated pose at `sensed_time_s`: the one `frame` is placed at (and integrated at).
     pub sensed_pose: Pose2,
+    /// The true pose at `sensed_time_s`, the one `frame` was rendered from.
+    pub sensed_true_pose: Pose2,
     pub completeness: f64,
     pub path_length_m: f64,
     pub frame: Option<&'a DepthFrame>,
@@ -70,7 +77,10 @@ impl Observer for NoObserver {}
 pub struct RunOutput {
     pub result: RunResult,
     pub map: Map,
+    /// The true poses: the start, then one per step.
     pub trajectory: Vec<Pose2>,
+    /// The robot's estimates of them (`trajectory` unless pose or motion noise is on).
+    pub estimated_trajectory: Vec<Pose2>,
     pub ground_truth: GroundTruth,
 }
 
@@ -216,7 +226,14 @@ pub struct Simulation<'a> {
     map: Map,
     camera: DepthCamera,
     frame: DepthFrame,
+    /// `[noise.depth]`, when on.
+    depth_noise: Option<DepthNoise>,
+    /// The true pose is `robot.pose`.
     robot: Robot,
+    /// `[noise.pose]` and `[noise.motion]`, when either is on: the robot's estimate of its pose.
+    odometry: Option<Odometry>,
+    /// The estimates, one per pose of `trajectory`, when `odometry` is on.
+    estimates: Vec<Pose2>,
     motion: MotionExecutor,
     search: Search,
     explored: ExploredVolume,
@@ -295,6 +312,13 @@ impl<'a> Simulation<'a> {
             map: Map::new(grid, cfg),
             camera: DepthCamera::new(&cfg.camera),
             frame: DepthFrame::default(),
+            depth_noise: DepthNoise::new(cfg),
+            odometry: Odometry::new(cfg, robot.pose),
+            estimates: if cfg.noise.pose_is_noisy() {
+                vec![robot.pose]
+            } else {
+                Vec::new()
+            },
             trajectory: vec![robot.pose],
             robot,
             need_plan: !motion.is_busy(),
@@ -351,8 +375,15 @@ impl<'a> Simulation<'a> {
         self.step as f64 / self.steps_per_s
     }
 
-    /// The robot's pose now.
+    /// The robot's pose now, as it knows it: its estimate with `[noise.pose]`, else the truth.
     pub fn pose(&self) -> Pose2 {
+        self.odometry
+            .as_ref()
+            .map_or(self.robot.pose, Odometry::estimate)
+    }
+
+    /// The robot's true pose now.
+    pub fn true_pose(&self) -> Pose2 {
         self.robot.pose
     }
 
@@ -448,9 +479,11 @@ impl<'a> Simulation<'a> {
         }
         let cfg = self.cfg;
         let time_s = self.time_s();
-        let sensed_pose = self.robot.pose;
+        let sensed = (self.pose(), self.robot.pose);
+        // What the robot believes: the map, the field, the planner and the motion guard use it.
+        let belief = sensed.0;
         self.clock.begin();
-        // Sense.
+        // Sense: the camera sees the scene from the true pose; the frame is placed at the estimate.
         let fired = self.step.is_multiple_of(self.camera_period);
         if fired {
             match cfg.camera.renderer {
@@ -463,6 +496,12 @@ impl<'a> Simulation<'a> {
                         .capture_into(&self.bvh, self.robot.pose, &mut self.frame)
                 }
             }
+            if let Some(noise) = &mut self.depth_noise {
+                noise.apply(&mut self.frame, self.step);
+            }
+            if self.odometry.is_some() {
+                self.camera.repose(belief, &mut self.frame);
+            }
         }
         self.clock.lap(Stage::Sense);
         // Map.
@@ -472,14 +511,14 @@ impl<'a> Simulation<'a> {
                 .add(&self.gt, &self.observable, &update.newly_known);
         }
         self.map
-            .clear_footprint(self.robot.pose.x, self.robot.pose.y, cfg.robot.radius_m);
+            .clear_footprint(belief.x, belief.y, cfg.robot.radius_m);
         self.clock.lap(Stage::Map);
         if let Some(cmd) = command {
-            return self.commanded_motion(cmd, time_s, sensed_pose, fired, observer);
+            return self.commanded_motion(cmd, time_s, sensed, fired, observer);
         }
         // Field: the tensor-field planners update theirs here; GREEDY and NBV-TSP have none.
         if let Some(fp) = self.planner.field_planner() {
-            if let Err(e) = fp.update_field(&self.map, self.robot.pose, time_s) {
+            if let Err(e) = fp.update_field(&self.map, belief, time_s) {
                 self.clock.end();
                 return self.fail(e);
             }
@@ -500,11 +539,11 @@ impl<'a> Simulation<'a> {
             }
         }
         // Motion.
-        let (cmd, status) = self.motion.step(self.robot.pose, &self.map);
+        let (cmd, status) = self.motion.step(belief, &self.map);
         if let Err(failed) = self.apply_command(cmd) {
             return failed;
         }
-        let pose = self.robot.pose;
+        let pose = self.pose();
         match status {
             MotionStatus::Busy => {}
             MotionStatus::Done | MotionStatus::Blocked => {
@@ -522,7 +561,7 @@ impl<'a> Simulation<'a> {
         }
         self.clock.lap(Stage::Motion);
         self.clock.end();
-        self.end_step(time_s, pose, sensed_pose, fired, observer)
+        self.end_step(time_s, sensed, fired, observer)
     }
 
     /// The motion stage of [`Simulation::step_commanded`]: the field and plan stages count zero.
@@ -530,30 +569,39 @@ impl<'a> Simulation<'a> {
         &mut self,
         cmd: Command,
         time_s: f64,
-        sensed_pose: Pose2,
+        sensed: (Pose2, Pose2),
         fired: bool,
         observer: &mut dyn Observer,
     ) -> StepOutcome {
         self.clock.lap(Stage::Field);
         self.clock.lap(Stage::Plan);
-        let before = self.robot.clone();
+        let before = (self.robot.clone(), self.odometry.clone());
         match self.apply_command(cmd) {
             Err(failed) => return failed,
             // The move into the scene is not made.
-            Ok(true) => self.robot = before,
+            Ok(true) => (self.robot, self.odometry) = before,
             Ok(false) => {}
         }
-        let pose = self.robot.pose;
         self.clock.lap(Stage::Motion);
         self.clock.end();
-        self.end_step(time_s, pose, sensed_pose, fired, observer)
+        self.end_step(time_s, sensed, fired, observer)
     }
 
-    /// Moves the robot by `cmd` for one `dt` and counts a collision if its body then touches the
-    /// scene (answering whether it does); `Err` with the step's outcome when the pose became NaN,
-    /// which fails the run.
+    /// Moves the robot by `cmd` for one `dt` (with `[noise.motion]`, by what it really executes;
+    /// the estimate follows) and counts a collision if its body then touches the scene (answering
+    /// whether it does); `Err` with the step's outcome when the pose became NaN, which fails the
+    /// run.
     fn apply_command(&mut self, cmd: Command) -> std::result::Result<bool, StepOutcome> {
-        self.robot.apply(cmd, self.dt);
+        let from = self.robot.pose;
+        let applied = self.robot.apply(cmd, self.dt);
+        if let Some(odometry) = &mut self.odometry {
+            let executed = odometry.execute(self.step, from, self.robot.pose);
+            // The distance driven is the executed one.
+            let driven = (executed.x - from.x).hypot(executed.y - from.y);
+            self.robot.path_length_m += driven - applied.v * self.dt;
+            self.robot.pose = executed;
+            odometry.observe(self.step, from, executed);
+        }
         if self.robot.pose.x.is_nan() || self.robot.pose.y.is_nan() {
             self.clock.end();
             return Err(self.fail(crate::Error::Runtime("robot pose became NaN".into())));
@@ -573,16 +621,20 @@ impl<'a> Simulation<'a> {
     }
 
     /// The end of every step: the trajectory, the metrics, the observer and the run's end.
+    /// `sensed` is the (estimated, true) pose at the step's start.
     fn end_step(
         &mut self,
         time_s: f64,
-        pose: Pose2,
-        sensed_pose: Pose2,
+        sensed: (Pose2, Pose2),
         fired: bool,
         observer: &mut dyn Observer,
     ) -> StepOutcome {
         let cfg = self.cfg;
-        self.trajectory.push(pose);
+        let (pose, true_pose) = (self.pose(), self.robot.pose);
+        self.trajectory.push(true_pose);
+        if self.odometry.is_some() {
+            self.estimates.push(pose);
+        }
         self.step += 1;
 
         // Metrics and termination.
@@ -604,8 +656,10 @@ impl<'a> Simulation<'a> {
             time_s: self.time_s(),
             budget_s: cfg.sim.budget_s.get(),
             pose,
+            true_pose,
             sensed_time_s: time_s,
-            sensed_pose,
+            sensed_pose: sensed.0,
+            sensed_true_pose: sensed.1,
             completeness: self.explored.completeness(),
             path_length_m: self.robot.path_length_m,
             frame: fired.then_some(&self.frame),
@@ -633,9 +687,10 @@ impl<'a> Simulation<'a> {
         time_s: f64,
         observer: &mut dyn Observer,
     ) -> Result<Option<Termination>> {
+        let pose = self.pose();
         let mut ctx = PlanContext {
             map: &self.map,
-            pose: self.robot.pose,
+            pose,
             time_s,
             cfg: &self.plan_params,
             search: &mut self.search,
@@ -682,6 +737,14 @@ impl<'a> Simulation<'a> {
         let wall_time_s = self.wall_start.elapsed().as_secs_f64();
         let (gt, map, cfg) = (&self.gt, &self.map, self.cfg);
         let left = frontiers_left(gt, &self.observable, map);
+        let quality = cfg
+            .noise
+            .any()
+            .then(|| map_quality(gt, &self.observable, map));
+        let pose_error = self
+            .odometry
+            .is_some()
+            .then(|| ate(&self.estimates, &self.trajectory));
         let result = RunResult {
             scene: self.scene.name.clone(),
             scene_hash: self.scene.content_hash.clone(),
@@ -717,11 +780,22 @@ impl<'a> Simulation<'a> {
             version: crate::VERSION.to_string(),
             config_hash: cfg.hash(),
             curve: self.curve,
+            map_precision: quality.map(|q| q.precision),
+            map_recall: quality.map(|q| q.recall),
+            free_but_occupied: quality.map(|q| q.free_but_occupied),
+            ate_rmse_m: pose_error.map(|e| e.0),
+            ate_max_m: pose_error.map(|e| e.1),
+        };
+        let estimated_trajectory = if self.odometry.is_some() {
+            self.estimates
+        } else {
+            self.trajectory.clone()
         };
         RunOutput {
             result,
             map: self.map,
             trajectory: self.trajectory,
+            estimated_trajectory,
             ground_truth: self.gt,
         }
     }
