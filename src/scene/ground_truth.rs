@@ -294,7 +294,7 @@ pub struct VoxelTriangles {
 pub const MAX_TRIANGLE_VOXELS: u64 = 100_000_000;
 
 /// Most a scene's faces may stack (see [`VoxelTriangles::stacking_depth`]): the shipped scenes and
-/// real plans stack under 2 deep, so this leaves room for finely tessellated furniture.
+/// real plans stack at most 3.3 deep, so this leaves room for finely tessellated furniture.
 pub const MAX_STACKING_DEPTH: f64 = 64.0;
 
 /// The voxels of `grid` in the bounding boxes of `mesh`'s triangles, summed over the triangles:
