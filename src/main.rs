@@ -14,14 +14,9 @@ fn main() -> ExitCode {
         Ok(args) => args,
         Err(e) => return cli::clap_exit(e),
     };
-    // The command runs on a worker of its own pool (sized by RAYON_NUM_THREADS, as the global pool
-    // would be), so that the parallel loops of a run start on the thread that asks for them: with one
-    // thread nothing is handed to another thread, and with two the calling thread takes part. Its
-    // threads get the main thread's usual 8 MiB of stack, which the command had before.
-    let outcome = match rayon::ThreadPoolBuilder::new().stack_size(8 << 20).build() {
-        Ok(pool) => pool.install(|| cli::dispatch(args)),
-        Err(_) => cli::dispatch(args),
-    };
+    // The command runs on a worker of the run pool, so that a run's parallel loops start on the
+    // thread that asks for them.
+    let outcome = tensorscout::util::on_run_pool(|| cli::dispatch(args));
     // A run stopped by a signal ends with 128 + the signal's number, whatever it printed.
     if let Some(code) = cli::signals::exit_code() {
         return ExitCode::from(code);

@@ -234,7 +234,7 @@ impl Planner for PyPlanner {
 /// What a Python planner sees during `plan(ctx)`: the map arrays, the pose, the frontier cells and
 /// groups, and A* and Dijkstra under the cost rule every built-in planner uses. Valid only during
 /// the call that received it.
-#[pyclass(name = "PlanContext", module = "tensorscout._native", unsendable)]
+#[pyclass(name = "PlanContext", module = "tensorscout._native")]
 pub struct PyPlanContext {
     map: *const Map,
     params: *const PlanParams,
@@ -243,6 +243,14 @@ pub struct PyPlanContext {
     time_s: f64,
     alive: bool,
 }
+
+// SAFETY: the pointers are followed only while `alive`, that is during the `plan()` call that lent
+// them (`call_with_ctx`), while the step loop that owns the data waits for the call and changes
+// nothing; the map and params are only read, and the search workspace is reached only through
+// `&mut self`, which Python's borrow of the object makes exclusive. Which thread makes the call (a
+// worker of the run pool) or later drops the object does not matter.
+unsafe impl Send for PyPlanContext {}
+unsafe impl Sync for PyPlanContext {}
 
 impl PyPlanContext {
     fn over(

@@ -18,6 +18,7 @@ use tensorscout::plan::{Planner, PlannerKind};
 use tensorscout::scene::{self, Scene};
 use tensorscout::sensor::DepthFrame;
 use tensorscout::sim::{NoObserver, ObservableCache, Observer, StepOutcome, Termination, World};
+use tensorscout::util::on_run_pool;
 use tensorscout::{Config, GridSpec, Pose2};
 
 /// Wall time between two checks for Ctrl-C while a run goes on without the GIL.
@@ -252,20 +253,22 @@ impl PySimulation {
             let ep = &mut self.ep;
             let rec = &mut self.recorder;
             let (outcome, left) = py.detach(move || {
-                let start = Instant::now();
-                let mut outcome = StepOutcome::Running;
-                while budget > 0 && start.elapsed() < SIGNAL_CHECK {
-                    let obs: &mut dyn Observer = match rec {
-                        Some(r) => r,
-                        None => &mut NoObserver,
-                    };
-                    outcome = ep.step(obs);
-                    budget -= 1;
-                    if outcome != StepOutcome::Running {
-                        break;
+                on_run_pool(move || {
+                    let start = Instant::now();
+                    let mut outcome = StepOutcome::Running;
+                    while budget > 0 && start.elapsed() < SIGNAL_CHECK {
+                        let obs: &mut dyn Observer = match rec {
+                            Some(r) => r,
+                            None => &mut NoObserver,
+                        };
+                        outcome = ep.step(obs);
+                        budget -= 1;
+                        if outcome != StepOutcome::Running {
+                            break;
+                        }
                     }
-                }
-                (outcome, budget)
+                    (outcome, budget)
+                })
             });
             budget = left;
             let pending = self.pending.lock().expect("pending").take();
@@ -355,7 +358,11 @@ impl PySimulation {
             let planner = choice.build(py, &cfg, &pending)?;
             let loaded = load_scene(py, &scene, &cfg)?;
             let world = py
-                .detach(|| World::with_cache(&loaded, &cfg, spawn, &ObservableCache::user()))
+                .detach(|| {
+                    on_run_pool(|| {
+                        World::with_cache(&loaded, &cfg, spawn, &ObservableCache::user())
+                    })
+                })
                 .py_err(py)?;
             let mut w = world
                 .observable_source

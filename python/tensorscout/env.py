@@ -134,8 +134,8 @@ def _seeds(seed: Union[None, int, Sequence[Optional[int]]], n: int) -> List[Opti
 
 
 class ExploreVectorEnv(VectorEnv[Dict[str, np.ndarray], np.ndarray, np.ndarray]):
-    """``num_envs`` explorations stepped in parallel on one rayon pool of ``num_threads`` threads
-    (default: one per core) without the GIL. Episodes do not depend on the number of threads.
+    """``num_envs`` explorations stepped in parallel on ``num_threads`` threads (default: one per
+    core) without the GIL. Episodes do not depend on the number of threads.
     Finished environments reset at their next step (Gymnasium's ``NEXT_STEP`` autoreset)."""
 
     metadata: Dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP}
