@@ -73,6 +73,12 @@ fn bad_flags_and_config_are_usage_errors() {
     assert_eq!(o.status.code(), Some(2));
     let o = run(&["explore", "--scene", s, "--spawn", "1,nope"]);
     assert_eq!(o.status.code(), Some(2));
+    // The scene commands take the scene as a positional argument: the error says so.
+    assert_fails(
+        &run(&["scene", "info", "--scene", s]),
+        2,
+        "unexpected argument '--scene' found: the scene commands take the scene file as their first argument",
+    );
 }
 
 #[test]

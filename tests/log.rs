@@ -354,10 +354,11 @@ fn interrupted_log_verifies_up_to_its_end() {
     let s = json(&s);
     assert_eq!(s["complete"], true);
     assert_eq!(s["result"]["termination"], "interrupted");
-    assert_eq!(
-        s["messages"]["/robot/pose"],
-        result["steps"].as_u64().unwrap() + 1
-    );
+    // A pose for the start and one per step; none when the signal landed before the first step
+    // (a loaded machine can take longer than the sleep above to get there).
+    let steps = result["steps"].as_u64().unwrap();
+    let poses = s["messages"]["/robot/pose"].as_u64().unwrap_or(0);
+    assert_eq!(poses, if steps == 0 { 0 } else { steps + 1 });
     // The re-run stops where the interrupted run stopped, and says so.
     let v = replay(&log, &["--verify"]);
     assert!(v.status.success(), "{}", stderr(&v));

@@ -254,6 +254,15 @@ pub fn clap_exit(e: clap::Error) -> std::process::ExitCode {
                         .collect();
                     format!("{first} {}", missing.join(", "))
                 }
+                // `--scene` is unexpected only where the scene is positional (`scene info PATH`).
+                ErrorKind::UnknownArgument
+                    if matches!(
+                        e.get(clap::error::ContextKind::InvalidArg),
+                        Some(clap::error::ContextValue::String(a)) if a.starts_with("--scene")
+                    ) =>
+                {
+                    format!("{first}: the scene commands take the scene file as their first argument, as in `tensorscout scene info scenes/apartment_small.obj`")
+                }
                 // A value outside a fixed set: name the set on the same line.
                 _ if valid.is_some() => format!("{first}: expected one of {}", valid.unwrap()),
                 _ => first.to_string(),
