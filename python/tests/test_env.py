@@ -152,6 +152,18 @@ def test_vector_env_equals_single_envs(threads: int, action_type: str) -> None:
         assert rewards == [r[i] for r in vrewards]
 
 
+def test_vector_env_with_more_threads_than_envs() -> None:
+    """Threads beyond the number of environments stay idle; the episodes are the same."""
+    runs = []
+    for threads in (1, 5):
+        vec = tensorscout.ExploreVectorEnv(2, SMALL, config=CFG, spawn="random", num_threads=threads)
+        obs, _ = vec.reset(seed=3)
+        for a in ([0, 1], [0, 0], [2, 0]):
+            obs, r, *_ = vec.step(np.array(a))
+        runs.append((obs["pose"].tolist(), obs["depth"].tobytes(), r.tolist()))
+    assert runs[0] == runs[1]
+
+
 def test_make_vec_uses_the_native_vector_env() -> None:
     envs = gym.make_vec("tensorscout/Explore-v0", num_envs=2, vectorization_mode="vector_entry_point",
                         config=CFG)
