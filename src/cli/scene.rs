@@ -24,7 +24,7 @@ pub enum SceneCommand {
         /// Seed of the layout.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Floor area, m² (20–10000).
+        /// Floor area, m² (20–40000).
         #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
         area: f64,
         /// Output OBJ path.
