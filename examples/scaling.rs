@@ -20,116 +20,50 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const HELP: &str = "\
-scaling: how a run's cost grows with the building's size.
-
-For each area A it generates an office (`scene generate --style office --seed 1 --area A`),
-computes its observable set with an empty cache (`scene info`), and runs THP and GREEDY on it
-(`explore --set sim.budget_s=S --json --quiet`, RAYON_NUM_THREADS=T), each child under GNU time
-for its wall time and peak RSS. It writes OUT_DIR/scaling.json, scaling.md and scaling.png (ms a
-step, total and per stage, against area, log-log); the scenes and their cache go in OUT_DIR/scenes.
-
-The default areas took 9 minutes on an idle 2-vCPU VM (2026-12): the 40,000 m² office's
-observable set (about 200 s) and THP run (about 125 s) are most of it; its children peaked at
-1.5 GB. Failed steps (a timeout; an area the generator refuses) are recorded in the outputs and
-listed on stderr; they do not stop the script.
-
-Usage: cargo run --release --example scaling -- [OUT_DIR] [OPTIONS]
-
-Arguments:
-  [OUT_DIR]          Output folder [default: results/scaling]
-
-Options:
-  --areas LIST       Floor areas, m², comma-separated [default: 100,400,1600,6400,10000,40000]
-  --bin PATH         The tensorscout binary [default: this checkout's target/release/tensorscout]
-  --threads T        RAYON_NUM_THREADS of the explore runs [default: 1]
-  --budget S         Simulated seconds a run (sim.budget_s) [default: 600]
-  --timeout S        Wall seconds after which a child is killed and its step failed [default: 900]
-  -h, --help         Print this help
-";
-
 const PLANNERS: [&str; 2] = ["thp", "greedy"];
 
+/// How a run's cost grows with the building's size.
+///
+/// For each area A it generates an office (`scene generate --style office --seed 1 --area A`),
+/// computes its observable set with an empty cache (`scene info`), and runs THP and GREEDY on it
+/// (`explore --set sim.budget_s=S --json --quiet`, RAYON_NUM_THREADS=T), each child under GNU time
+/// for its wall time and peak RSS. It writes OUT_DIR/scaling.json, scaling.md and scaling.png (ms a
+/// step, total and per stage, against area, log-log); the scenes and their cache go in
+/// OUT_DIR/scenes.
+///
+/// The default areas took 9 minutes on an idle 2-vCPU VM (2026-12): the 40,000 m² office's
+/// observable set (about 200 s) and THP run (about 125 s) are most of it; its children peaked at
+/// 1.5 GB. Failed steps (a timeout; an area the generator refuses) are recorded in the outputs and
+/// listed on stderr; they do not stop the script.
+#[derive(clap::Parser)]
+#[command(name = "scaling")]
 struct Options {
+    /// Output folder.
+    #[arg(default_value = "results/scaling")]
     out: PathBuf,
+    /// Floor areas, m², comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [100u32, 400, 1600, 6400, 10000, 40000],
+          value_parser = clap::value_parser!(u32).range(1..))]
     areas: Vec<u32>,
-    bin: PathBuf,
-    threads: usize,
+    /// The tensorscout binary [default: this checkout's target/release/tensorscout].
+    #[arg(long, value_name = "PATH")]
+    bin: Option<PathBuf>,
+    /// RAYON_NUM_THREADS of the explore runs.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: u32,
+    /// Simulated seconds a run (sim.budget_s).
+    #[arg(long, default_value_t = 600.0, value_parser = positive)]
     budget: f64,
+    /// Wall seconds after which a child is killed and its step failed.
+    #[arg(long, default_value_t = 900.0, value_parser = positive)]
     timeout: f64,
 }
 
-fn usage_error(msg: &str) -> ! {
-    eprintln!("scaling: {msg} (see --help)");
-    std::process::exit(2);
-}
-
-fn parse_args() -> Options {
-    let mut o = Options {
-        out: PathBuf::from("results/scaling"),
-        areas: vec![100, 400, 1600, 6400, 10000, 40000],
-        bin: Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/tensorscout"),
-        threads: 1,
-        budget: 600.0,
-        timeout: 900.0,
-    };
-    let mut out_given = false;
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a == "-h" || a == "--help" {
-            print!("{HELP}");
-            std::process::exit(0);
-        }
-        if !a.starts_with('-') || a == "-" {
-            if out_given {
-                usage_error(&format!("unexpected argument `{a}`: only one OUT_DIR"));
-            }
-            o.out = PathBuf::from(a);
-            out_given = true;
-            continue;
-        }
-        // `--opt value` or `--opt=value`.
-        let (name, inline) = match a.split_once('=') {
-            Some((n, v)) => (n.to_string(), Some(v.to_string())),
-            None => (a.clone(), None),
-        };
-        if !["--areas", "--bin", "--threads", "--budget", "--timeout"].contains(&name.as_str()) {
-            usage_error(&format!("unknown option `{name}`"));
-        }
-        let value = inline
-            .or_else(|| args.next())
-            .unwrap_or_else(|| usage_error(&format!("{name} needs a value")));
-        let positive = |v: &str| -> f64 {
-            match v.parse::<f64>() {
-                Ok(x) if x.is_finite() && x > 0.0 => x,
-                _ => usage_error(&format!("{name}: `{v}` is not a positive number")),
-            }
-        };
-        match name.as_str() {
-            "--areas" => {
-                o.areas = value
-                    .split(',')
-                    .map(|s| match s.trim().parse::<u32>() {
-                        Ok(x) if x > 0 => x,
-                        _ => usage_error(&format!(
-                            "--areas: `{s}` is not a whole number of m² (a list is `100,400`)"
-                        )),
-                    })
-                    .collect();
-            }
-            "--bin" => o.bin = PathBuf::from(value),
-            "--threads" => match value.parse::<usize>() {
-                Ok(t) if t > 0 => o.threads = t,
-                _ => usage_error(&format!(
-                    "--threads: `{value}` is not a positive whole number"
-                )),
-            },
-            "--budget" => o.budget = positive(&value),
-            "--timeout" => o.timeout = positive(&value),
-            _ => unreachable!(),
-        }
+fn positive(v: &str) -> Result<f64, String> {
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("`{v}` is not a positive number")),
     }
-    o
 }
 
 /// What one child process did: its wall time, peak RSS (KiB, from GNU time) and output.
@@ -719,11 +653,14 @@ fn write_outputs(out: &Path, doc: &Value) -> Option<String> {
 }
 
 fn main() {
-    let o = parse_args();
-    if !o.bin.is_file() {
+    let o = <Options as clap::Parser>::parse();
+    let bin = o.bin.clone().unwrap_or_else(|| {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/tensorscout")
+    });
+    if !bin.is_file() {
         eprintln!(
             "scaling: {} does not exist: run `cargo build --release` first (or pass --bin PATH)",
-            o.bin.display()
+            bin.display()
         );
         std::process::exit(1);
     }
@@ -747,7 +684,7 @@ fn main() {
         eprintln!("scaling: {}: {e}", scenes.display());
         std::process::exit(1);
     }
-    let bin = std::fs::canonicalize(&o.bin).unwrap_or(o.bin.clone());
+    let bin = std::fs::canonicalize(&bin).unwrap_or(bin);
     let areas: Vec<String> = o.areas.iter().map(u32::to_string).collect();
     let mut doc = json!({
         "meta": {
