@@ -13,6 +13,7 @@
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use tensorscout::bench::SERIES_COLOURS;
 use tensorscout::sim::RunResult;
 
 /// Mean and 95 % half-width of `v` (0 for fewer than two values).
@@ -160,13 +161,6 @@ fn main() {
     });
 }
 
-const COLOURS: [RGBColor; 4] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-];
-
 /// Two panels: completeness and collisions per run against the noise level, a line per planner
 /// with 95 % bars.
 fn draw(
@@ -225,7 +219,7 @@ fn draw(
                 .axis_desc_style(("sans-serif", 20))
                 .draw()?;
             for (i, p) in planners.iter().enumerate() {
-                let colour = COLOURS[i % COLOURS.len()];
+                let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
                 // Planners side by side at each level, so that their bars do not hide each other.
                 let dx = (i as f64 - (planners.len() as f64 - 1.0) / 2.0) * 0.06;
                 let pts: Vec<(f64, (f64, f64))> = (0..n)

@@ -19,6 +19,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use tensorscout::bench::SERIES_COLOURS;
 
 const PLANNERS: [&str; 2] = ["thp", "greedy"];
 
@@ -262,6 +263,13 @@ fn skipped(why: &str) -> Value {
     json!({ "ok": false, "error": format!("skipped: {why}") })
 }
 
+/// Whether a record is one of [`skipped`]'s.
+fn is_skipped(rec: &Value) -> bool {
+    rec["error"]
+        .as_str()
+        .is_some_and(|e| e.starts_with("skipped"))
+}
+
 /// `1600` as `1,600`.
 fn thousands(n: u32) -> String {
     let s = n.to_string();
@@ -419,14 +427,7 @@ fn markdown(doc: &Value) -> String {
             let area = thousands(r["area_m2"].as_u64().unwrap_or(0) as u32);
             let name = r["planner"].as_str().unwrap_or("?");
             if r["ok"] != json!(true) {
-                let what = if r["error"]
-                    .as_str()
-                    .is_some_and(|e| e.starts_with("skipped"))
-                {
-                    "skipped"
-                } else {
-                    "failed"
-                };
+                let what = if is_skipped(r) { "skipped" } else { "failed" };
                 s.push_str(&format!(
                     "| {area} | {name} | {what} | | | | | {} | |\n",
                     mib(&r["peak_rss_kib"])
@@ -459,10 +460,7 @@ fn markdown(doc: &Value) -> String {
         let cell = |v: &Value| -> (String, String) {
             if v["ok"] == json!(true) {
                 (num(&v["wall_s"], 1), mib(&v["peak_rss_kib"]))
-            } else if v["error"]
-                .as_str()
-                .is_some_and(|e| e.starts_with("skipped"))
-            {
+            } else if is_skipped(v) {
                 ("skipped".into(), "–".into())
             } else {
                 ("failed".into(), mib(&v["peak_rss_kib"]))
@@ -490,15 +488,6 @@ fn markdown(doc: &Value) -> String {
     }
     s
 }
-
-const COLOURS: [RGBColor; 6] = [
-    RGBColor(0, 0, 0),
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-];
 
 /// A stage's name and its (area, ms) points.
 type Line<'a> = (&'a str, Vec<(f64, f64)>);
@@ -595,7 +584,10 @@ fn draw(out: &Path, doc: &Value) -> Result<(), Box<dyn std::error::Error>> {
                 }
                 // A stage keeps its colour in both panels.
                 let i = stages.iter().position(|(n, _)| n == s).unwrap_or(0);
-                let colour = COLOURS[i % COLOURS.len()];
+                let colour = match i {
+                    0 => BLACK,
+                    i => SERIES_COLOURS[(i - 1) % SERIES_COLOURS.len()],
+                };
                 let width = if *s == "total" { 4 } else { 2 };
                 chart
                     .draw_series(LineSeries::new(

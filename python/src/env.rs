@@ -654,7 +654,7 @@ pub struct PyVecEnvCore {
 /// takes the next environment from a shared counter, so a long step on one thread does not hold
 /// the others back, and an environment's own parallel loops (rendering, integration, planning)
 /// run inline on its thread. On one pool of N threads those loops were split between the threads
-/// as well, which cost about 4 % more CPU time than one thread and kept two threads at 1.75× one.
+/// as well, which cost about 4 % more CPU time than one thread and kept two threads at 1.74× one.
 struct EnvWorkers {
     pools: Vec<rayon::ThreadPool>,
 }

@@ -15,6 +15,7 @@ use crate::config::SpawnMode;
 use crate::plan::PlannerKind;
 use crate::sim::{self, ObservableCache, World};
 use crate::{scene, Config, Error, Result};
+pub use plot::SERIES_COLOURS;
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -23,8 +23,9 @@ const SIZE: (u32, u32) = (900, 600);
 /// The SVG's size, user units (px): smaller than the PNG so that, scaled to a paper's column width
 /// (about 252 pt, 3.5 in), its smallest text is still above 8 pt.
 const SVG_SIZE: (u32, u32) = (480, 340);
-/// Planner colours (Okabe–Ito, readable by colour-blind readers), by planner name order.
-const COLOURS: [RGBColor; 6] = [
+/// Series colours of every plot (Okabe–Ito, readable by colour-blind readers): planners by name
+/// order here, and the examples' plots.
+pub const SERIES_COLOURS: [RGBColor; 6] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
     RGBColor(0, 158, 115),
@@ -152,7 +153,7 @@ fn draw_plot<DB: DrawingBackend>(
         .draw()
         .map_err(|x| e(&x))?;
     for (i, (planner, band)) in s.iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
+        let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
         // The band: the highest seed's curve out and the lowest one's back.
         let outline: Vec<(f64, f64)> = band
             .hi
