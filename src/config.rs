@@ -181,6 +181,7 @@ pub struct Additions {
     pub look_when_blocked: bool,
     pub advection_stall_s: NonNegative,
     pub nbv_frontier_views: bool,
+    pub field_range_m: NonNegative,
 }
 
 /// How the ground truth of what can be observed is sampled (see `eval::observable`).
@@ -682,6 +683,7 @@ const BOUNDS: &[Bound] = &[
     b("additions.escape_clearance_m", Closed, 0.0, 10.0),
     b("additions.way_out_m", Closed, 0.0, 100.0),
     b("additions.advection_stall_s", Closed, 0.0, 1e6),
+    b("additions.field_range_m", Closed, 0.0, 1000.0),
     b("log.depth_every_n", Count, 0.0, 1e6),
     b("log.map_every_s", Closed, 0.01, 1e6),
     b("log.zstd_level", Count, 1.0, 19.0),

@@ -289,6 +289,12 @@ impl ConstraintStore {
 
     /// Distance from `p` to the nearest constraint of unlimited radius (ring search over bins).
     pub fn nearest_distance(&self, p: Point2<f64>) -> Option<f64> {
+        self.nearest_within(p, f64::INFINITY)
+    }
+
+    /// [`ConstraintStore::nearest_distance`] if it is at most `r`, else `None`; the search stops
+    /// at the rings beyond `r`.
+    pub fn nearest_within(&self, p: Point2<f64>, r: f64) -> Option<f64> {
         let (px, py) = self.bin_of(p);
         let bin_m = BIN as f64 * self.fine.res;
         let mut best = f64::INFINITY;
@@ -321,11 +327,11 @@ impl ConstraintStore {
                 }
             }
             // Bins of the next ring are at least `ring` bins away from p's bin, whose extent p is in.
-            if best.is_finite() && best.sqrt() <= ring as f64 * bin_m {
+            if (best.is_finite() && best.sqrt() <= ring as f64 * bin_m) || ring as f64 * bin_m > r {
                 break;
             }
         }
-        best.is_finite().then(|| best.sqrt())
+        (best.is_finite() && best.sqrt() <= r).then(|| best.sqrt())
     }
 
     /// Every constraint within `r` of `p`, in bin order (deterministic).
@@ -357,6 +363,9 @@ pub struct FieldLevel {
     pub grid: FieldGrid,
     tiles_x: usize,
 
+    /// No unlimited constraint counts at a cell farther than this from the nearest one (∞: all
+    /// count); see [`FieldLevel::set_range`].
+    range: f64,
     /// Per tile: the `reach` its last evaluation used (∞ before any constraint existed).
     reach: Vec<f64>,
     dirty: Vec<bool>,
@@ -410,10 +419,38 @@ impl FieldLevel {
             grid: FieldGrid::zeros(spec),
             tiles_x,
 
+            range: f64::INFINITY,
             reach: vec![f64::INFINITY; tiles_x * tiles_y],
             dirty: vec![false; tiles_x * tiles_y],
             g,
         }
+    }
+
+    /// Limits the field to cells within `range` of an unlimited constraint: farther, only limited
+    /// constraints count (none: no field). A change of a constraint then alters only tiles within a
+    /// bounded distance of it, so the work of a refresh follows what changed, not the grid's size.
+    /// Call before inserting constraints.
+    pub fn set_range(&mut self, range: f64) {
+        debug_assert!(self.store.is_empty(), "set the range before any constraint");
+        self.range = range;
+        let t = self.tile_half();
+        // Before any constraint every tile is far: it changes when one comes within range of a cell.
+        self.reach.fill(if range.is_finite() {
+            range + t
+        } else {
+            f64::INFINITY
+        });
+    }
+
+    /// Half the diagonal of a whole tile, metres.
+    fn tile_half(&self) -> f64 {
+        0.5 * (TILE - 1) as f64 * self.grid.spec.res * std::f64::consts::SQRT_2
+    }
+
+    /// The largest `reach` a tile can have under a finite range (∞ without one).
+    fn max_reach(&self) -> f64 {
+        let t = self.tile_half();
+        t + ((self.range + 2.0 * t).powi(2) + self.kernel.r2).sqrt()
     }
 
     pub fn kernel(&self) -> &Kernel {
@@ -463,9 +500,13 @@ impl FieldLevel {
         let s = &self.grid.spec;
         let tiles_y = self.reach.len() / self.tiles_x;
         let (mut x_range, mut y_range) = (0..=self.tiles_x - 1, 0..=tiles_y - 1);
-        if c.is_limited() {
+        if c.is_limited() || self.range.is_finite() {
             let span = TILE as f64 * s.res;
-            let reach = span * std::f64::consts::SQRT_2 + c.radius;
+            let reach = if c.is_limited() {
+                span * std::f64::consts::SQRT_2 + c.radius
+            } else {
+                self.max_reach()
+            };
             // One tile of slack on each side covers rounding at the tile borders.
             let range = |v: f64, origin: f64, n: usize| {
                 let lo = ((v - reach - origin) / span).floor() - 1.0;
@@ -610,9 +651,10 @@ impl FieldLevel {
             })
             .collect();
         let k = &self.kernel;
-        let d0 = self.store.nearest_distance(center);
+        // Beyond the range every cell of the tile is farther than it from the unlimited constraints.
+        let d0 = self.store.nearest_within(center, self.range + t);
         // Unlimited constraints within `reach`; limited ones within `t + radius` (filtered per cell).
-        let reach = d0.map_or(f64::INFINITY, |d0| t + ((d0 + t).powi(2) + k.r2).sqrt());
+        let reach = d0.map_or(self.range + t, |d0| t + ((d0 + t).powi(2) + k.r2).sqrt());
         let gather = if d0.is_some() {
             reach.max(t + self.store.max_radius)
         } else {
@@ -630,20 +672,28 @@ impl FieldLevel {
             .filter(|c| (c.pos - center).norm_squared() <= near_r2)
             .map(|c| c.pos)
             .collect();
-        let dmin2: Vec<f64> = cells
+        // A cell farther than the range from every unlimited constraint (`beyond`) keeps only the
+        // limited terms, relative to the nearest limited one.
+        let range2 = self.range * self.range;
+        let (dmin2, beyond): (Vec<f64>, Vec<bool>) = cells
             .iter()
             .map(|(_, p)| {
-                near.iter()
+                let du2 = near
+                    .iter()
                     .map(|q| (p - q).norm_squared())
-                    .chain(
-                        limited
-                            .iter()
-                            .filter(|c| c.counts_at(*p))
-                            .map(|c| (p - c.pos).norm_squared()),
-                    )
-                    .fold(f64::INFINITY, f64::min)
+                    .fold(f64::INFINITY, f64::min);
+                let dl2 = limited
+                    .iter()
+                    .filter(|c| c.counts_at(*p))
+                    .map(|c| (p - c.pos).norm_squared())
+                    .fold(f64::INFINITY, f64::min);
+                if du2 > range2 {
+                    (dl2, true)
+                } else {
+                    (du2.min(dl2), false)
+                }
             })
-            .collect();
+            .unzip();
         // The limited terms of one cell, relative to its d_min.
         let limited_terms = |ci: usize, p: Point2<f64>| -> [f64; 3] {
             let mut out = [0.0; 3];
@@ -677,7 +727,7 @@ impl FieldLevel {
             // Far from every constraint: direct exponentials per term (rare: open space early on).
             for (ci, (i, p)) in cells.iter().enumerate() {
                 let [mut a, mut b, mut w] = limited_terms(ci, *p);
-                for c in cands.iter() {
+                for c in cands.iter().filter(|_| !beyond[ci]) {
                     let wt = (-k.c * ((p - c.pos).norm_squared() - dmin2[ci])).exp();
                     a += wt * c.tensor[0];
                     b += wt * c.tensor[1];
@@ -741,14 +791,18 @@ impl FieldLevel {
             let r = &row[i * n..(i + 1) * n];
             for j in 0..xs.len() {
                 let cl = &col[j * n..(j + 1) * n];
-                let [a, b, w] = weighted_sums(cl, r, ta, tb, st);
-                let scale = (k.c * (dmin2[ci] - q0)).exp();
                 let [la, lb, lw] = limited_terms(ci, cells[ci].1);
-                values.push((
-                    cells[ci].0,
-                    [a * scale + la, b * scale + lb],
-                    w * scale + lw,
-                ));
+                if beyond[ci] {
+                    values.push((cells[ci].0, [la, lb], lw));
+                } else {
+                    let [a, b, w] = weighted_sums(cl, r, ta, tb, st);
+                    let scale = (k.c * (dmin2[ci] - q0)).exp();
+                    values.push((
+                        cells[ci].0,
+                        [a * scale + la, b * scale + lb],
+                        w * scale + lw,
+                    ));
+                }
                 ci += 1;
             }
         }
@@ -1090,6 +1144,83 @@ mod tests {
         }
         inc.refresh();
         assert_eq!(inc.grid, before);
+    }
+
+    #[test]
+    fn a_bounded_range_keeps_the_field_within_it_and_only_path_terms_beyond() {
+        let g = fine();
+        let k = Kernel::new(0.5, 1.0, 1e-12);
+        let walls = wall_constraints(&g);
+        let path = path_constraints(
+            &[Point2::new(2.0, 2.0), Point2::new(7.5, 6.0)],
+            0.2,
+            1.0,
+            0.5,
+        );
+        let range = 1.5;
+        // Built incrementally: some walls, then the rest and a path, then one wall removed.
+        let mut ranged = FieldLevel::new(g, 1, k);
+        ranged.set_range(range);
+        for c in &walls[..20] {
+            ranged.insert(*c);
+        }
+        ranged.refresh();
+        let ids: Vec<u32> = walls[20..]
+            .iter()
+            .chain(&path)
+            .map(|c| ranged.insert(*c))
+            .collect();
+        ranged.refresh();
+        ranged.remove(ids[3]);
+        ranged.refresh();
+        let kept: Vec<Constraint> = walls
+            .iter()
+            .chain(&path)
+            .enumerate()
+            .filter(|(n, _)| *n != 23)
+            .map(|(_, c)| *c)
+            .collect();
+        let mut full = FieldLevel::new(g, 1, k);
+        full.set_range(range);
+        let mut unbounded = FieldLevel::new(g, 1, k);
+        for c in &kept {
+            full.insert(*c);
+            unbounded.insert(*c);
+        }
+        full.recompute_all();
+        unbounded.recompute_all();
+        assert_eq!(ranged.grid, full.grid);
+        let limited: Vec<Constraint> = kept.iter().filter(|c| c.is_limited()).copied().collect();
+        let (mut within, mut beyond, mut beyond_on_path) = (0, 0, 0);
+        for i in 0..g.cells() {
+            let p = g.center(g.cell(i));
+            let d = kept
+                .iter()
+                .filter(|c| !c.is_limited())
+                .map(|c| (p - c.pos).norm())
+                .fold(f64::INFINITY, f64::min);
+            let f = ranged.grid.at_index(i);
+            if d < range - 1e-9 {
+                // Within the range: Eq. 11 itself, bit for bit.
+                assert_eq!(f, unbounded.grid.at_index(i), "cell {i} at {p:?}");
+                within += 1;
+            } else if d > range + 1e-9 {
+                // Beyond it: the path's terms alone, and nothing off the path.
+                let r = reference_at(&limited, p, &k);
+                assert!(
+                    (f.a - r.a).abs() <= 1e-9
+                        && (f.b - r.b).abs() <= 1e-9
+                        && (f.weight - r.weight).abs() <= 1e-9,
+                    "cell {i} at {p:?}: {f:?} vs {r:?}"
+                );
+                beyond += 1;
+                beyond_on_path += usize::from(r.weight > 0.0);
+            }
+        }
+        assert!(
+            within > 1000 && beyond > 500 && beyond_on_path > 20,
+            "{within} {beyond} {beyond_on_path}"
+        );
     }
 
     #[test]

@@ -33,6 +33,16 @@
 //!
 //! Tests (`tests` below) check on axis-aligned layouts that points are few, sit at room centres and
 //! junctions, and keep their position and id when more of the scene is revealed.
+//!
+//! # A bounded range (not in any paper)
+//!
+//! Eq. 11 defines the field everywhere, and far from every wall its value is the normalised sum of
+//! weights that have all decayed alike: it carries no information, yet a far cell depends on most
+//! constraints, so every change of the map recomputed far tiles and the field's cost grew with the
+//! grid. With a range `D` ([`TensorField::with_range`], `additions.field_range_m`), a cell farther
+//! than `D` from every surface constraint takes only the limited (path) constraints, and none: no
+//! field (zero tensor, no degenerate point). A change then touches only tiles within
+//! `t + √((D + 2t)² + R²)` of it (`t` half a tile's diagonal, `R` the kernel's cutoff radius).
 
 pub(crate) mod advect;
 pub(crate) mod clearance;
@@ -234,6 +244,18 @@ impl TensorField {
             graph_inputs: Default::default(),
             control: ControlCounts::default(),
         }
+    }
+
+    /// The field with no value farther than `range_m` from every surface constraint (module doc, "A
+    /// bounded range"); 0 or ∞ keeps Eq. 11 everywhere. Call on a new field, before its first update.
+    pub fn with_range(mut self, range_m: f64) -> Self {
+        if range_m > 0.0 {
+            self.main.set_range(range_m);
+            if let Some(topo) = &mut self.topo {
+                topo.set_range(range_m);
+            }
+        }
+        self
     }
 
     pub fn grid(&self) -> &GridSpec {

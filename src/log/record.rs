@@ -55,6 +55,8 @@ pub struct Recorder<S: Sink> {
     pub sink: S,
     cfg: LogConfig,
     field_cfg: FieldConfig,
+    /// `additions.field_range_m`, for the field built here.
+    field_range_m: f64,
     /// Built at the first key frame when `log.field` is on (GREEDY has no field of its own).
     field: Option<TensorField>,
     frames_seen: u64,
@@ -80,6 +82,7 @@ impl<S: Sink> Recorder<S> {
             sink,
             cfg: cfg.log.clone(),
             field_cfg: cfg.field.clone(),
+            field_range_m: cfg.additions.field_range_m.get(),
             field: None,
             frames_seen: 0,
             next_key_frame_s: 0.0,
@@ -566,10 +569,10 @@ impl<S: Sink> Observer for Recorder<S> {
                 let field = match view.field {
                     Some(f) => Some(f),
                     None => {
-                        let (cfg, map) = (&self.field_cfg, view.map);
-                        let own = self
-                            .field
-                            .get_or_insert_with(|| TensorField::new(*map.grid(), cfg));
+                        let (cfg, map, range_m) = (&self.field_cfg, view.map, self.field_range_m);
+                        let own = self.field.get_or_insert_with(|| {
+                            TensorField::new(*map.grid(), cfg).with_range(range_m)
+                        });
                         // The field's grid is the map's, so update cannot fail on a grid mismatch.
                         own.update(map).is_ok().then_some(&*own)
                     }

@@ -295,6 +295,8 @@ struct Stats {
 pub struct Tensor {
     cfg: TensorConfig,
     field_cfg: FieldConfig,
+    /// `additions.field_range_m`.
+    field_range_m: f64,
     field: Option<TensorField>,
     /// The planning field of the previous key frame (`None` before the second one).
     prev: Option<FieldGrid>,
@@ -341,6 +343,8 @@ pub struct TensorParams {
     pub greedy: GreedyConfig,
     /// How the GREEDY hand-over gives frontiers up (`[additions]`).
     pub visit_rules: crate::plan::VisitRules,
+    /// `additions.field_range_m`.
+    pub field_range_m: f64,
     /// `robot.max_speed_mps`.
     pub max_speed_mps: f64,
 }
@@ -352,6 +356,7 @@ impl From<&Config> for TensorParams {
             field: cfg.field.clone(),
             greedy: cfg.greedy.clone(),
             visit_rules: (&cfg.additions).into(),
+            field_range_m: cfg.additions.field_range_m.get(),
             max_speed_mps: cfg.robot.max_speed_mps,
         }
     }
@@ -368,6 +373,7 @@ impl Tensor {
         Tensor {
             cfg: cfg.tensor.clone(),
             field_cfg,
+            field_range_m: cfg.field_range_m,
             field: None,
             prev: None,
             key_time_s: 0.0,
@@ -698,9 +704,10 @@ impl Planner for Tensor {
 
 impl FieldPlanner for Tensor {
     fn update_field(&mut self, map: &Map, pose: Pose2, time_s: f64) -> Result<()> {
+        let (cfg, range_m) = (&self.field_cfg, self.field_range_m);
         let field = self
             .field
-            .get_or_insert_with(|| TensorField::new(*map.grid(), &self.field_cfg));
+            .get_or_insert_with(|| TensorField::new(*map.grid(), cfg).with_range(range_m));
         if time_s + 1e-9 >= self.next_key_s {
             let before = (self.stats.key_frames > 0).then(|| field.field().clone());
             field.update(map)?;

@@ -67,7 +67,9 @@
 //!   every move, typically in a doorway beside never-seen cells) is followed by a look around
 //!   before the next goal (`looks_when_blocked`); so is an escape or a volume view that could not;
 //! - `advection_stall_s`: when advection has not brought the robot farther along its A* path for
-//!   that long, the robot follows the A* path itself to that goal (`advection_stalls`).
+//!   that long, the robot follows the A* path itself to that goal (`advection_stalls`);
+//! - `field_range_m`: the field has no value farther than that from every surface constraint
+//!   (`crate::field`, "A bounded range"), shared with TENSOR.
 //!
 //! Readings where the paper leaves room, in `[thp]` and the same in both profiles:
 //! `thp.finish_group_first` (off) and `thp.tour_start` (see [`tour`]), `thp.tour_costs`.
@@ -148,6 +150,8 @@ pub struct Thp {
 #[derive(Clone)]
 struct KeyFrames {
     cfg: FieldConfig,
+    /// `additions.field_range_m`.
+    range_m: f64,
     field: Option<TensorField>,
     next_s: f64,
 }
@@ -161,7 +165,7 @@ impl KeyFrames {
         }
         let first = self.field.is_none();
         let field = self.field.get_or_insert_with(|| {
-            let mut f = TensorField::new(*map.grid(), &self.cfg);
+            let mut f = TensorField::new(*map.grid(), &self.cfg).with_range(self.range_m);
             // THP reads the planning field only along its pathlines (`pathline_computing`).
             f.set_lazy_planning_field(true);
             f
@@ -224,6 +228,7 @@ impl Thp {
             radius_m: params.plan.robot.radius_m,
             key_frames: KeyFrames {
                 cfg: params.field.clone(),
+                range_m: params.plan.additions.field_range_m.get(),
                 field: None,
                 next_s: 0.0,
             },
