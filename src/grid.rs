@@ -178,6 +178,119 @@ impl GridSpec {
     }
 }
 
+/// A rectangle of cells, bounds inclusive, or empty: the part of a grid some work is confined to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CellRect {
+    pub min: Cell,
+    pub max: Cell,
+}
+
+impl Default for CellRect {
+    fn default() -> Self {
+        CellRect::EMPTY
+    }
+}
+
+impl CellRect {
+    /// Holds no cell; grows to the first one added.
+    pub const EMPTY: CellRect = CellRect {
+        min: Cell::new(i32::MAX, i32::MAX),
+        max: Cell::new(i32::MIN, i32::MIN),
+    };
+
+    /// Every cell of `grid`.
+    pub fn all(grid: &GridSpec) -> CellRect {
+        CellRect {
+            min: Cell::new(0, 0),
+            max: Cell::new(grid.nx as i32 - 1, grid.ny as i32 - 1),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y
+    }
+
+    pub fn contains(&self, c: Cell) -> bool {
+        (self.min.x..=self.max.x).contains(&c.x) && (self.min.y..=self.max.y).contains(&c.y)
+    }
+
+    /// Grows to hold `c`.
+    #[inline]
+    pub fn add(&mut self, c: Cell) {
+        self.min = Cell::new(self.min.x.min(c.x), self.min.y.min(c.y));
+        self.max = Cell::new(self.max.x.max(c.x), self.max.y.max(c.y));
+    }
+
+    /// The smallest rectangle holding both.
+    pub fn union(self, other: CellRect) -> CellRect {
+        let mut r = self;
+        if !other.is_empty() {
+            r.add(other.min);
+            r.add(other.max);
+        }
+        r
+    }
+
+    /// The cells within `r` metres (in x and in y) of `p`, clipped to `grid`.
+    pub fn around(grid: &GridSpec, p: Point2<f64>, r: f64) -> CellRect {
+        let lo = grid.cell_at(p.x - r, p.y - r);
+        let hi = grid.cell_at(p.x + r, p.y + r);
+        CellRect { min: lo, max: hi }.clip(grid)
+    }
+
+    /// The part inside `grid`.
+    pub fn clip(self, grid: &GridSpec) -> CellRect {
+        if self.is_empty() {
+            return CellRect::EMPTY;
+        }
+        let r = CellRect {
+            min: Cell::new(self.min.x.max(0), self.min.y.max(0)),
+            max: Cell::new(
+                self.max.x.min(grid.nx as i32 - 1),
+                self.max.y.min(grid.ny as i32 - 1),
+            ),
+        };
+        if r.is_empty() {
+            CellRect::EMPTY
+        } else {
+            r
+        }
+    }
+
+    /// Width in cells (0 when empty).
+    pub fn width(&self) -> usize {
+        if self.is_empty() {
+            0
+        } else {
+            (self.max.x - self.min.x + 1) as usize
+        }
+    }
+
+    /// Its cells with their flat indices in `grid`, ascending (the rectangle lies in `grid`).
+    pub fn cells(self, grid: &GridSpec) -> impl Iterator<Item = (Cell, usize)> {
+        let x0 = self.min.x;
+        self.rows(grid).enumerate().flat_map(move |(k, row)| {
+            let y = self.min.y + k as i32;
+            let start = row.start;
+            row.map(move |i| (Cell::new(x0 + (i - start) as i32, y), i))
+        })
+    }
+
+    /// Its rows as ranges of flat cell indices of `grid`, ascending (the rectangle lies in `grid`).
+    pub fn rows(self, grid: &GridSpec) -> impl Iterator<Item = std::ops::Range<usize>> {
+        let (x0, w, nx) = (self.min.x.max(0) as usize, self.width(), grid.nx);
+        let ys = if self.is_empty() {
+            0..0
+        } else {
+            self.min.y as usize..self.max.y as usize + 1
+        };
+        ys.map(move |y| {
+            let start = y * nx + x0;
+            start..start + w
+        })
+    }
+}
+
 /// What is known about one floor cell: of the robot's map, or of a ROS map file (where `Obstacle` is
 /// map_server's "occupied").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -127,9 +127,19 @@ fn disc_fits(
     radius: f64,
 ) -> Vec<bool> {
     let reach = (radius / grid.res).ceil() as i32 + 1;
+    // The columns whose square comes within the radius of a cell's centre (a little more, against
+    // rounding): a triangle meets the disc's cylinder only inside such a column, and it is listed
+    // in every voxel it overlaps.
+    let squares_within: Vec<(i32, i32)> = (-reach..=reach)
+        .flat_map(|dy| (-reach..=reach).map(move |dx| (dx, dy)))
+        .filter(|&(dx, dy)| {
+            let gap = |d: i32| (d.abs() as f64 - 0.5).max(0.0) * grid.res;
+            gap(dx).hypot(gap(dy)) <= radius + 1e-6
+        })
+        .collect();
     (0..grid.cells())
         .into_par_iter()
-        .map(|i| {
+        .map_init(Vec::new, |near: &mut Vec<u32>, i| {
             if square_clearance[i] as f64 > radius {
                 return true;
             }
@@ -137,16 +147,14 @@ fn disc_fits(
                 return false;
             }
             let c = grid.cell(i);
-            let mut near: Vec<u32> = Vec::new();
-            for dy in -reach..=reach {
-                for dx in -reach..=reach {
-                    let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
-                        continue;
-                    };
-                    if obstacle[j] {
-                        for iz in body_layers.clone() {
-                            near.extend_from_slice(triangles.of(iz * grid.cells() + j));
-                        }
+            near.clear();
+            for &(dx, dy) in &squares_within {
+                let Some(j) = grid.checked_index(Cell::new(c.x + dx, c.y + dy)) else {
+                    continue;
+                };
+                if obstacle[j] {
+                    for iz in body_layers.clone() {
+                        near.extend_from_slice(triangles.of(iz * grid.cells() + j));
                     }
                 }
             }

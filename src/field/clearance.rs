@@ -2,7 +2,7 @@
 //! transform every key frame: the field needs it only at its degenerate points and along the few
 //! climbs of topological control, a few hundred cells against the whole grid.
 
-use crate::grid::{Cell, GridSpec};
+use crate::grid::{Cell, CellRect, GridSpec};
 use std::sync::Arc;
 
 /// Block edge, cells.
@@ -20,20 +20,21 @@ pub struct ObstacleIndex {
 }
 
 impl ObstacleIndex {
-    /// The index of the cells where `is_obstacle` holds.
-    pub fn from_fn(grid: GridSpec, mut is_obstacle: impl FnMut(usize) -> bool) -> Self {
+    /// The index of the cells of `within` where `is_obstacle` holds (none outside it).
+    pub fn from_fn(
+        grid: GridSpec,
+        within: CellRect,
+        mut is_obstacle: impl FnMut(usize) -> bool,
+    ) -> Self {
         let bx = (grid.nx as i32 + BLOCK - 1) / BLOCK;
         let by = (grid.ny as i32 + BLOCK - 1) / BLOCK;
         let mut counts = vec![0u32; (bx * by) as usize];
         let mut obstacle = vec![false; grid.cells()];
-        for y in 0..grid.ny {
-            let brow = (y as i32 / BLOCK * bx) as usize;
-            for x in 0..grid.nx {
-                let i = y * grid.nx + x;
-                if is_obstacle(i) {
-                    obstacle[i] = true;
-                    counts[brow + x / BLOCK as usize] += 1;
-                }
+        let within = within.clip(&grid);
+        for (c, i) in within.cells(&grid) {
+            if is_obstacle(i) {
+                obstacle[i] = true;
+                counts[(c.y / BLOCK * bx + c.x / BLOCK) as usize] += 1;
             }
         }
         ObstacleIndex {
@@ -122,7 +123,7 @@ mod tests {
                     mask[grid.index(Cell::new(x, 30))] = round < 3;
                 }
             }
-            let index = ObstacleIndex::from_fn(grid, |i| mask[i]);
+            let index = ObstacleIndex::from_fn(grid, CellRect::all(&grid), |i| mask[i]);
             let full = crate::grid::distance_transform(&mask, grid.nx, grid.ny);
             for (i, &d2) in full.iter().enumerate() {
                 let d = d2.sqrt() * grid.res;

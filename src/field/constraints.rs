@@ -8,7 +8,7 @@
 //! covered are sampled again. A sample's tangent is re-fitted when surface cells appear or vanish in
 //! its PCA window, so that the field changes only near what changed.
 
-use crate::grid::{Cell, GridSpec};
+use crate::grid::{Cell, CellRect, GridSpec};
 use nalgebra::{Point2, Vector2};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -142,6 +142,8 @@ pub struct SurfaceSampler {
     pca_radius_cells: i32,
     min_anisotropy: f64,
     surface: Vec<bool>,
+    /// Holds every cell ever on the surface layer.
+    surface_ever: CellRect,
     sample_at: Vec<u32>,
     samples: Vec<Option<Sample>>,
 }
@@ -154,6 +156,7 @@ impl SurfaceSampler {
             pca_radius_cells: (tangent_radius_m / grid.res).round().max(1.0) as i32,
             min_anisotropy,
             surface: vec![false; grid.cells()],
+            surface_ever: CellRect::EMPTY,
             sample_at: vec![NO_SAMPLE; grid.cells()],
             samples: Vec::new(),
         }
@@ -175,15 +178,21 @@ impl SurfaceSampler {
             .filter_map(|(i, s)| s.as_ref().map(|s| (i as u32, s.cell)))
     }
 
-    /// Diffs `surface` (one flag per cell of the grid) against the last layer and samples what changed.
-    pub fn update(&mut self, surface: impl Fn(usize) -> bool) -> SampleChanges {
+    /// Diffs `surface` (one flag per cell of the grid, false outside `within`) against the last
+    /// layer and samples what changed.
+    pub fn update(&mut self, within: CellRect, surface: impl Fn(usize) -> bool) -> SampleChanges {
         let mut changes = SampleChanges::default();
         let mut changed_cells = Vec::new();
-        for idx in 0..self.grid.cells() {
-            let now = surface(idx);
+        // A cell that was on the surface may have left it outside `within`; in ascending order.
+        let look = within.clip(&self.grid).union(self.surface_ever);
+        for (c, idx) in look.cells(&self.grid) {
+            let now = within.contains(c) && surface(idx);
             if now != self.surface[idx] {
                 self.surface[idx] = now;
                 changed_cells.push(idx);
+                if now {
+                    self.surface_ever.add(c);
+                }
             }
         }
         if changed_cells.is_empty() {
@@ -364,7 +373,9 @@ mod tests {
     fn straight_wall_gets_exact_axis_tangent_and_spacing() {
         let g = grid();
         let mut s = SurfaceSampler::new(g, 0.2, 0.4, 0.05);
-        let ch = s.update(|i| g.cell(i).y == 20 && (5..35).contains(&g.cell(i).x));
+        let ch = s.update(CellRect::all(&g), |i| {
+            g.cell(i).y == 20 && (5..35).contains(&g.cell(i).x)
+        });
         assert!(ch.removed.is_empty());
         // 30 cells at 0.1 m sampled every 0.2 m: 15 samples.
         assert_eq!(ch.added.len(), 15);
@@ -387,7 +398,7 @@ mod tests {
             let c = g.cell(i);
             (c.y == 10 && (10..30).contains(&c.x)) || (c.x == 10 && (10..30).contains(&c.y))
         };
-        s.update(on);
+        s.update(CellRect::all(&g), on);
         let corner = s
             .samples()
             .find(|(_, c)| *c == Cell::new(10, 10))
@@ -403,9 +414,13 @@ mod tests {
     fn incremental_keeps_old_samples_and_adds_only_new_ones() {
         let g = grid();
         let mut s = SurfaceSampler::new(g, 0.2, 0.4, 0.05);
-        s.update(|i| g.cell(i).y == 20 && (5..20).contains(&g.cell(i).x));
+        s.update(CellRect::all(&g), |i| {
+            g.cell(i).y == 20 && (5..20).contains(&g.cell(i).x)
+        });
         let before: Vec<(u32, Cell)> = s.samples().collect();
-        let ch = s.update(|i| g.cell(i).y == 20 && (5..35).contains(&g.cell(i).x));
+        let ch = s.update(CellRect::all(&g), |i| {
+            g.cell(i).y == 20 && (5..35).contains(&g.cell(i).x)
+        });
         let after: Vec<(u32, Cell)> = s.samples().collect();
         assert!(before.iter().all(|b| after.contains(b)));
         for &id in &ch.added {
@@ -414,9 +429,18 @@ mod tests {
         }
         // The sample at the old end saw its window grow, so it is the only re-fit candidate.
         assert!(ch.refitted.len() <= 2, "{:?}", ch.refitted);
-        // Removing the surface removes the samples.
-        let ch = s.update(|_| false);
-        assert_eq!(ch.removed.len(), after.len());
+        // Outside `within` no cell is surface, whatever the layer says: a narrower rectangle removes
+        // the samples beyond it, and an empty one removes them all.
+        let left = CellRect {
+            min: Cell::new(0, 0),
+            max: Cell::new(19, g.ny as i32 - 1),
+        };
+        let ch = s.update(left, |i| {
+            g.cell(i).y == 20 && (5..35).contains(&g.cell(i).x)
+        });
+        assert!(!ch.removed.is_empty());
+        assert!(s.samples().all(|(_, c)| c.x < 20));
+        s.update(CellRect::EMPTY, |_| true);
         assert_eq!(s.samples().count(), 0);
     }
 

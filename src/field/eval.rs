@@ -123,11 +123,29 @@ pub fn reference_grid(constraints: &[Constraint], spec: &GridSpec, k: &Kernel) -
 }
 
 /// A grid of `(a, b)` at cell centres, with weight sums: what topology, advection and drawing read.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct FieldGrid {
     pub spec: GridSpec,
     pub ab: Vec<[f64; 2]>,
     pub weight: Vec<f64>,
+}
+
+impl Clone for FieldGrid {
+    fn clone(&self) -> Self {
+        FieldGrid {
+            spec: self.spec,
+            ab: self.ab.clone(),
+            weight: self.weight.clone(),
+        }
+    }
+
+    /// Reuses the buffers: a key frame copies a grid-sized field, and fresh memory costs a page
+    /// fault per page touched.
+    fn clone_from(&mut self, source: &Self) {
+        self.spec = source.spec;
+        self.ab.clone_from(&source.ab);
+        self.weight.clone_from(&source.weight);
+    }
 }
 
 impl FieldGrid {

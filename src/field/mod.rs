@@ -64,7 +64,7 @@ pub use topology::{EdgeKind, TopologyGraph};
 
 use crate::config::FieldConfig;
 use crate::error::{Error, Result};
-use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{Cell, CellRect, GridSpec, NEIGHBOURS_8};
 use nalgebra::Point2;
 use serde::Serialize;
 use std::sync::{Arc, OnceLock};
@@ -77,6 +77,11 @@ pub trait FieldInputs {
     fn is_surface(&self, cell: usize) -> bool;
     fn is_obstacle(&self, cell: usize) -> bool;
     fn is_unknown(&self, cell: usize) -> bool;
+    /// The cells outside which every cell is unknown, no obstacle and no surface: a key frame reads
+    /// the layers only inside it (the whole grid unless the inputs know better).
+    fn touched(&self) -> CellRect {
+        CellRect::all(self.grid())
+    }
 }
 
 /// The map's layers drive the field during a run.
@@ -92,6 +97,9 @@ impl FieldInputs for crate::map::Map {
     }
     fn is_unknown(&self, cell: usize) -> bool {
         crate::map::Map::is_unknown(self, cell)
+    }
+    fn touched(&self) -> CellRect {
+        crate::map::Map::touched(self)
     }
 }
 
@@ -235,7 +243,7 @@ impl TensorField {
             planning_snapshot: OnceLock::new(),
             sample_ids: Vec::new(),
             path_ids: Vec::new(),
-            obstacle: clearance::ObstacleIndex::from_fn(grid, |_| false),
+            obstacle: clearance::ObstacleIndex::from_fn(grid, CellRect::EMPTY, |_| false),
             unknown: Arc::new(vec![false; grid.cells()]),
             tracker: degenerate::Tracker::default(),
             topo_field,
@@ -355,13 +363,15 @@ impl TensorField {
         let mut stats = UpdateStats::default();
         let t0 = Instant::now();
         // Fresh layers (not written in place): a graph not built yet keeps those of its key frame.
-        self.obstacle = clearance::ObstacleIndex::from_fn(self.grid, |i| inputs.is_obstacle(i));
-        self.unknown = Arc::new(
-            (0..self.grid.cells())
-                .map(|i| inputs.is_unknown(i))
-                .collect(),
-        );
-        let changes = self.sampler.update(|i| inputs.is_surface(i));
+        let touched = inputs.touched().clip(&self.grid);
+        self.obstacle =
+            clearance::ObstacleIndex::from_fn(self.grid, touched, |i| inputs.is_obstacle(i));
+        let mut unknown = vec![true; self.grid.cells()];
+        for i in touched.rows(&self.grid).flatten() {
+            unknown[i] = inputs.is_unknown(i);
+        }
+        self.unknown = Arc::new(unknown);
+        let changes = self.sampler.update(touched, |i| inputs.is_surface(i));
         stats.samples_added = changes.added.len();
         stats.samples_removed = changes.removed.len();
         stats.samples_refitted = changes.refitted.len();
@@ -495,7 +505,8 @@ impl TensorField {
     /// Degenerate points (tracked), separatrices and graph, with topological control if enabled.
     /// Public so that the bench can time it on its own.
     pub fn compute_topology(&mut self) {
-        self.topo_field = self.topo.as_ref().unwrap_or(&self.main).grid.clone();
+        self.topo_field
+            .clone_from(&self.topo.as_ref().unwrap_or(&self.main).grid);
         let mut nodes = self.find_points(&self.topo_field);
         self.control = ControlCounts::default();
         // Moves need no graph: apply them first, so the graph is built once in the default setting.

@@ -3,7 +3,7 @@
 
 use super::occupancy::{ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
 use super::MapParams;
-use crate::grid::{Cell, GridSpec, NEIGHBOURS_8};
+use crate::grid::{Cell, CellRect, GridSpec, NEIGHBOURS_8};
 use nalgebra::Point2;
 use std::collections::VecDeque;
 use std::f64::consts::SQRT_2;
@@ -90,6 +90,10 @@ pub struct Layers {
     proximity: Vec<u32>,
     traversable: Vec<bool>,
     frontier: Vec<bool>,
+    /// Holds every cell whose state, traversability or frontier flag has ever been set (every cell
+    /// [`Self::settle`] has looked at): outside it a cell is as in an all-unknown map, so the searches
+    /// and the frontier scan need not look there.
+    touched: CellRect,
 }
 
 impl Layers {
@@ -129,6 +133,7 @@ impl Layers {
             proximity: vec![0; n],
             traversable: vec![false; n],
             frontier: vec![false; n],
+            touched: CellRect::EMPTY,
         }
     }
 
@@ -398,6 +403,7 @@ impl Layers {
         }
         for idx in frontier_dirty {
             self.frontier[idx] = self.is_frontier_now(idx);
+            self.touched.add(self.grid.cell(idx));
         }
     }
 
@@ -450,6 +456,12 @@ impl Layers {
         for idx in 0..n {
             self.frontier[idx] = self.is_frontier_now(idx);
         }
+        self.touched = CellRect::all(&self.grid);
+    }
+
+    /// The cells outside which the map is as it was before any frame (see `touched`).
+    pub fn touched(&self) -> CellRect {
+        self.touched
     }
 
     /// Frontier cells clustered into 8-connected components, each split into pieces whose member cell
@@ -466,7 +478,8 @@ impl Layers {
         let mut segments = Vec::new();
         let mut queue = VecDeque::new();
         let max_cells2 = (self.segment_max_m / g.res).powi(2) * (1.0 + 1e-9);
-        for start in 0..n {
+        // Every frontier cell lies in `touched`; its rows come in ascending index order.
+        for start in self.touched.rows(g).flatten() {
             if !self.frontier[start] || pending[start] != 0 {
                 continue;
             }

@@ -8,7 +8,7 @@ pub(crate) mod sight;
 pub use layers::{CellState, FrontierSegment, Layers};
 pub use occupancy::{LogOdds, ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
 
-use crate::grid::{Cell, GridSpec};
+use crate::grid::{Cell, CellRect, GridSpec};
 use crate::sensor::DepthFrame;
 use crate::Config;
 use nalgebra::Point2;
@@ -101,6 +101,12 @@ impl Map {
     /// State of cell `idx` (flat index).
     pub fn cell_state(&self, idx: usize) -> CellState {
         self.layers.states()[idx]
+    }
+
+    /// The cells outside which the map is as before any frame: unknown, never traversable, never a
+    /// frontier. Work that only concerns known cells can be confined to it.
+    pub fn touched(&self) -> CellRect {
+        self.layers.touched()
     }
 
     /// Free and outside every obstacle's inflation disc: the robot's centre may be here.
@@ -357,7 +363,14 @@ mod tests {
             assert_eq!(scratch.traversable(), map.layers.traversable());
             assert_eq!(scratch.frontier(), map.layers.frontier());
             assert_eq!(scratch.counters(), map.layers.counters());
+            let touched = map.touched();
             for i in 0..grid.cells() {
+                // Outside the touched rectangle the map is as before any frame.
+                if !touched.contains(grid.cell(i)) {
+                    assert!(
+                        map.is_unknown(i) && !map.is_traversable(i) && !map.layers.frontier()[i]
+                    );
+                }
                 assert_eq!(scratch.is_seen(i), map.is_seen(i));
                 assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
                 assert_eq!(scratch.is_near_obstacle(i), map.is_near_obstacle(i));

@@ -15,7 +15,7 @@ pub(crate) mod view_gain;
 
 use crate::config::{Additions, CameraConfig, Config, MotionConfig, RobotConfig, SearchConfig};
 use crate::field::TensorField;
-use crate::grid::Cell;
+use crate::grid::{Cell, CellRect};
 use crate::map::Map;
 use crate::{Pose2, Result};
 pub use frontier::VisitRules;
@@ -111,7 +111,11 @@ fn near_robot(cfg: &SearchConfig, robot: Point2<f64>, p: Point2<f64>) -> bool {
 /// [`step_cost`] of every cell, for a planning step that runs several searches from one robot
 /// position: one evaluation per cell instead of one per neighbour visit of every search.
 #[derive(Clone, Default)]
-pub struct StepCosts(Vec<f32>);
+pub struct StepCosts {
+    costs: Vec<f32>,
+    /// Every cell ever given a finite cost lies in it; the cells outside hold infinity.
+    filled: CellRect,
+}
 
 impl StepCosts {
     pub fn new(map: &Map, cfg: &SearchConfig, robot: Point2<f64>) -> Self {
@@ -120,26 +124,33 @@ impl StepCosts {
         costs
     }
 
-    /// Re-evaluates every cell for a new map and robot position, reusing the buffer. Walks the grid
-    /// row by row, so a cell's centre comes without an index division.
+    /// Re-evaluates every cell for a new map and robot position, reusing the buffer. Only cells a
+    /// search could enter are evaluated: those the map has touched and those near the robot (all of
+    /// them when unknown space counts as free); the rest stay infinite. Walks row by row, so a
+    /// cell's centre comes without an index division.
     pub fn refill(&mut self, map: &Map, cfg: &SearchConfig, robot: Point2<f64>) {
         let grid = map.grid();
-        self.0.clear();
-        self.0.reserve(grid.cells());
-        for y in 0..grid.ny {
-            for x in 0..grid.nx {
-                let cell = y * grid.nx + x;
-                let cost = cost_rule(map, cfg, cell, || {
-                    near_robot(cfg, robot, grid.center(Cell::new(x as i32, y as i32)))
-                });
-                self.0.push(cost.unwrap_or(f32::INFINITY));
-            }
+        if self.costs.len() != grid.cells() {
+            self.costs = vec![f32::INFINITY; grid.cells()];
+            self.filled = CellRect::EMPTY;
+        }
+        let enterable = if cfg.unknown_is_free {
+            CellRect::all(grid)
+        } else {
+            let near = CellRect::around(grid, robot, cfg.near_unknown_radius_m + grid.res);
+            map.touched().union(near)
+        };
+        // The cells filled before are evaluated again: a cost may have become infinite.
+        self.filled = self.filled.union(enterable);
+        for (c, cell) in self.filled.cells(grid) {
+            let cost = cost_rule(map, cfg, cell, || near_robot(cfg, robot, grid.center(c)));
+            self.costs[cell] = cost.unwrap_or(f32::INFINITY);
         }
     }
 
     /// The cost of entering `cell`, as [`step_cost`] gives it.
     pub fn get(&self, cell: usize) -> Option<f32> {
-        let c = self.0[cell];
+        let c = self.costs[cell];
         c.is_finite().then_some(c)
     }
 }
@@ -536,6 +547,46 @@ mod tests {
                 !unknown_is_free,
                 "{unknown_enterable:?}"
             );
+        }
+    }
+
+    /// One table, refilled as the map grows, the robot moves into never-seen space and the rule
+    /// turns optimistic and back, agrees with the cost rule cell by cell each time.
+    #[test]
+    fn a_refilled_table_agrees_with_the_cost_rule() {
+        let mut cfg = Config::default();
+        let grid = GridSpec::covering(
+            Point2::new(-10.0, -10.0),
+            Point2::new(10.0, 10.0),
+            cfg.map.band_max_m,
+            cfg.map.voxel_m,
+        );
+        let mut mesh = TriMesh::default();
+        push_box(&mut mesh, [-19.0, -19.0, -0.1], [19.0, 19.0, 0.0]);
+        push_box(&mut mesh, [2.0, -0.5, 0.0], [2.5, 0.5, 1.0]);
+        let bvh = MeshBvh::new(&mesh).unwrap();
+        let mut table = StepCosts::default();
+        let mut poses = Vec::new();
+        let steps = [
+            (0.0, 0.0, false),
+            (-3.0, 1.0, false),
+            (-3.0, 1.0, true),
+            (8.0, -8.0, false),
+        ];
+        for (k, &(x, y, unknown_is_free)) in steps.iter().enumerate() {
+            poses.push(Pose2::new(x, y, k as f64 * 2.0));
+            let map = seen_from(grid, &cfg, &bvh, poses.iter().copied());
+            assert_ne!(map.touched(), CellRect::all(&grid), "step {k}");
+            let robot = Point2::new(x, y);
+            cfg.search.unknown_is_free = unknown_is_free;
+            table.refill(&map, &cfg.search, robot);
+            let mut enterable = 0;
+            for cell in 0..grid.cells() {
+                let expected = step_cost(&map, &cfg.search, robot, cell);
+                assert_eq!(table.get(cell), expected, "step {k} cell {cell}");
+                enterable += usize::from(expected.is_some());
+            }
+            assert!(enterable > 0, "step {k}");
         }
     }
 }

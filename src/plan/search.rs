@@ -89,6 +89,9 @@ pub struct DistanceField {
     /// `f32::INFINITY` where unreachable.
     pub cost: Vec<f32>,
     parent: Vec<u32>,
+    /// The cells the last search wrote, so that the next one resets only those: a search settles
+    /// the known floor, not the grid.
+    written: Vec<u32>,
 }
 
 impl DistanceField {
@@ -361,14 +364,21 @@ impl Search {
         out: &mut DistanceField,
     ) {
         out.source = source;
-        out.cost.clear();
-        out.cost.resize(self.cells, f32::INFINITY);
-        out.parent.clear();
-        out.parent.resize(self.cells, u32::MAX);
-        let (costs, parent) = (&mut out.cost, &mut out.parent);
+        if out.cost.len() == self.cells {
+            for &at in &out.written {
+                out.cost[at as usize] = f32::INFINITY;
+                out.parent[at as usize] = u32::MAX;
+            }
+        } else {
+            out.cost = vec![f32::INFINITY; self.cells];
+            out.parent = vec![u32::MAX; self.cells];
+        }
+        out.written.clear();
+        let (costs, parent, written) = (&mut out.cost, &mut out.parent, &mut out.written);
         self.dijkstra(grid, &cost, source, max_cost, |at, g, from| {
             costs[at] = g;
             parent[at] = from;
+            written.push(at as u32);
             false
         });
     }
@@ -550,8 +560,10 @@ mod tests {
         let mut field = DistanceField::default();
         for k in 0..8 {
             let src = open[k * 37 % open.len()];
-            reused.distance_field_into(&g, cost, src, f32::INFINITY, &mut field);
-            let fresh = Search::new(&g).distance_field(&g, cost, src, f32::INFINITY);
+            // Every other field is bounded, so it reaches fewer cells than the one before it.
+            let max_cost = if k % 2 == 0 { f32::INFINITY } else { 2.0 };
+            reused.distance_field_into(&g, cost, src, max_cost, &mut field);
+            let fresh = Search::new(&g).distance_field(&g, cost, src, max_cost);
             assert_eq!(field.source, fresh.source);
             assert_eq!(field.cost, fresh.cost);
             assert_eq!(field.parent, fresh.parent);
