@@ -90,9 +90,10 @@ pub struct Layers {
     proximity: Vec<u32>,
     traversable: Vec<bool>,
     frontier: Vec<bool>,
-    /// Holds every cell whose state, traversability or frontier flag has ever been set (every cell
-    /// [`Self::settle`] has looked at): outside it a cell is as in an all-unknown map, so the searches
-    /// and the frontier scan need not look there.
+    /// Holds every column the map has recomputed, every footprint cell and every cell
+    /// [`Self::settle`] has looked at: outside it a cell is as in an all-unknown map (no state,
+    /// surface, seen or hidden flag, traversability or frontier), so the searches, the frontier scan
+    /// and the field's key frames need not look there.
     touched: CellRect,
 }
 
@@ -246,6 +247,7 @@ impl Layers {
             self.seen[c] = seen;
             self.hidden[c] = hidden;
             self.set_state(c, state, &mut changed);
+            self.touched.add(self.grid.cell(c));
         }
         for &c in columns.iter().chain(grown_boxes) {
             let c = c as usize;
@@ -267,6 +269,7 @@ impl Layers {
                 };
                 let p = self.grid.center(Cell::new(cx, cy));
                 if (p - Point2::new(x, y)).norm() <= radius {
+                    self.touched.add(Cell::new(cx, cy));
                     self.footprint[idx] = true;
                     self.seen[idx] = true;
                     if self.state[idx] == CellState::Unknown {

@@ -370,6 +370,7 @@ mod tests {
                     assert!(
                         map.is_unknown(i) && !map.is_traversable(i) && !map.layers.frontier()[i]
                     );
+                    assert!(!map.is_surface(i) && !map.is_seen(i) && !map.is_hidden(i));
                 }
                 assert_eq!(scratch.is_seen(i), map.is_seen(i));
                 assert_eq!(scratch.is_inflated(i), map.is_inflated(i));
