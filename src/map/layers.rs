@@ -1,7 +1,7 @@
 //! 2D layers derived from the voxels, kept up to date incrementally: column state, obstacle inflation,
 //! traversability, surface cells and frontier cells.
 
-use super::occupancy::{ObstacleBox, Occupancy, VoxelState, OBSTACLE_BOX_SLACK_M};
+use super::occupancy::{inflation_test_radius2, ObstacleBox, Occupancy, VoxelState};
 use super::MapParams;
 use crate::grid::{Cell, CellRect, GridSpec, NEIGHBOURS_8};
 use nalgebra::Point2;
@@ -117,7 +117,7 @@ impl Layers {
             surface_band,
             min_known,
             below_eye,
-            inflation_radius2: (radius - OBSTACLE_BOX_SLACK_M as f64).powi(2),
+            inflation_radius2: inflation_test_radius2(radius),
             proximity_radius2: proximity_radius * proximity_radius,
             reach_offsets,
             segment_max_m: m.frontier_segment_max_m,

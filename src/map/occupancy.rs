@@ -68,6 +68,27 @@ impl ObstacleBox {
         max: [f32::NEG_INFINITY; 2],
     };
 
+    /// Grows to hold `(x, y)` and the slack around it within the cell's `square` (lower and upper
+    /// corners); the point itself is held even if rounding put it just outside.
+    #[inline]
+    pub fn grow_to(&mut self, square: ([f32; 2], [f32; 2]), x: f32, y: f32) {
+        let (lo, hi) = square;
+        let s = OBSTACLE_BOX_SLACK_M;
+        self.min[0] = self.min[0].min((x - s).max(lo[0]).min(x));
+        self.min[1] = self.min[1].min((y - s).max(lo[1]).min(y));
+        self.max[0] = self.max[0].max((x + s).min(hi[0]).max(x));
+        self.max[1] = self.max[1].max((y + s).min(hi[1]).max(y));
+    }
+
+    /// Whether a robot centred at `p` lies in this box's inflation: within `inflation_m` (the robot
+    /// radius plus the margin) of what the box was grown to, the box itself reaching the slack
+    /// beyond it. The one rule of the map's inflation layer and of the ground truth's reachable
+    /// region, so that a map that has seen every surface passes where the ground truth says it can.
+    #[inline]
+    pub fn inflates(&self, p: Point2<f64>, inflation_m: f64) -> bool {
+        self.distance_squared(p) <= inflation_test_radius2(inflation_m)
+    }
+
     /// The whole square of cell `c`: where an obstacle column with no recorded hit may be.
     pub fn cell(grid: &GridSpec, c: Cell) -> ObstacleBox {
         let (lo, hi) = cell_square(grid, c);
@@ -98,8 +119,14 @@ impl ObstacleBox {
     }
 }
 
+/// The squared distance to an obstacle box within which a cell is inflated ([`ObstacleBox::inflates`]):
+/// the inflation radius less the slack by which the box reaches beyond its points.
+pub fn inflation_test_radius2(inflation_m: f64) -> f64 {
+    (inflation_m - OBSTACLE_BOX_SLACK_M as f64).powi(2)
+}
+
 /// The corners of cell `c`'s square, as f32 (the precision of [`ObstacleBox`]).
-fn cell_square(grid: &GridSpec, c: Cell) -> ([f32; 2], [f32; 2]) {
+pub fn cell_square(grid: &GridSpec, c: Cell) -> ([f32; 2], [f32; 2]) {
     let centre = grid.center(c);
     let h = 0.5 * grid.res;
     (
@@ -734,14 +761,10 @@ impl BoxGrower<'_> {
     /// but never so far as to leave the point out.
     #[cold]
     fn grow_box(&mut self, column: usize, x: f32, y: f32) {
-        let (lo, hi) = cell_square(&self.grid, self.grid.cell(column));
-        let s = OBSTACLE_BOX_SLACK_M;
+        let square = cell_square(&self.grid, self.grid.cell(column));
         let b = &mut self.obstacle_box[column];
         let old = *b;
-        b.min[0] = b.min[0].min((x - s).max(lo[0]).min(x));
-        b.min[1] = b.min[1].min((y - s).max(lo[1]).min(y));
-        b.max[0] = b.max[0].max((x + s).min(hi[0]).max(x));
-        b.max[1] = b.max[1].max((y + s).min(hi[1]).max(y));
+        b.grow_to(square, x, y);
         if *b != old {
             self.grown.push(column as u32);
         }

@@ -12,8 +12,8 @@ pub fn triangle_meets_cylinder(
     // Clip to z ≥ z_min, then z ≤ z_max (Sutherland–Hodgman; inclusive, so a triangle lying in a slab
     // face is kept). At most 5 vertices result.
     let mut poly: Vec<[f64; 3]> = tri.to_vec();
-    poly = clip_z(&poly, z_min, true);
-    poly = clip_z(&poly, z_max, false);
+    poly = clip(&poly, 2, z_min, true);
+    poly = clip(&poly, 2, z_max, false);
     if poly.is_empty() {
         return false;
     }
@@ -46,13 +46,43 @@ pub fn triangle_meets_cylinder(
     sign != 0.0
 }
 
-/// Keeps the part of a convex polygon with `z ≥ plane` (`keep_above`) or `z ≤ plane`.
-fn clip_z(poly: &[[f64; 3]], plane: f64, keep_above: bool) -> Vec<[f64; 3]> {
+/// The x and y extent of the part of a triangle inside the closed box `[lo, hi]`, or `None` if no
+/// part of it lies inside: the box of the true surface in a voxel column, as the map's obstacle box
+/// is the box of the ray hits there.
+pub fn triangle_extent_in_box(
+    tri: [[f64; 3]; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Option<([f64; 2], [f64; 2])> {
+    let mut poly: Vec<[f64; 3]> = tri.to_vec();
+    for axis in 0..3 {
+        poly = clip(&poly, axis, lo[axis], true);
+        poly = clip(&poly, axis, hi[axis], false);
+        if poly.is_empty() {
+            return None;
+        }
+    }
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    for p in &poly {
+        for a in 0..2 {
+            // Clipped coordinates are kept inside the box against rounding.
+            let v = p[a].clamp(lo[a], hi[a]);
+            min[a] = min[a].min(v);
+            max[a] = max[a].max(v);
+        }
+    }
+    Some((min, max))
+}
+
+/// Keeps the part of a convex polygon with coordinate `axis` at least `plane` (`keep_above`) or at
+/// most `plane` (Sutherland–Hodgman; inclusive, so a polygon lying in the plane is kept).
+fn clip(poly: &[[f64; 3]], axis: usize, plane: f64, keep_above: bool) -> Vec<[f64; 3]> {
     let inside = |p: &[f64; 3]| {
         if keep_above {
-            p[2] >= plane
+            p[axis] >= plane
         } else {
-            p[2] <= plane
+            p[axis] <= plane
         }
     };
     let mut out = Vec::with_capacity(poly.len() + 1);
@@ -64,8 +94,13 @@ fn clip_z(poly: &[[f64; 3]], plane: f64, keep_above: bool) -> Vec<[f64; 3]> {
             out.push(a);
         }
         if ia != ib {
-            let t = (plane - a[2]) / (b[2] - a[2]);
-            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), plane]);
+            let t = (plane - a[axis]) / (b[axis] - a[axis]);
+            let mut p = [0.0; 3];
+            for k in 0..3 {
+                p[k] = a[k] + t * (b[k] - a[k]);
+            }
+            p[axis] = plane;
+            out.push(p);
         }
     }
     out

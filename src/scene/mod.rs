@@ -2,6 +2,7 @@
 //!
 //! Every loader returns a z-up mesh in metres; [`load`] then validates it and moves its floor to z = 0.
 
+pub mod doorway;
 pub(crate) mod extrude;
 pub mod generate;
 pub(crate) mod geometry;
