@@ -277,7 +277,9 @@ mod tests {
             let poses = [1.0, 2.0, 2.6, 4.0, 4.6, 5.5]
                 .into_iter()
                 .flat_map(|x| [0.8, 1.6, 2.4].map(|y| (x, y)))
-                .flat_map(|(x, y)| (0..16).map(move |k| Pose2::new(x, y, k as f64 * 0.3927)));
+                .flat_map(|(x, y)| {
+                    (0..16).map(move |k| Pose2::new(x, y, k as f64 * std::f64::consts::FRAC_PI_8))
+                });
             let map = seen_from(grid, &cfg, &bvh, poses);
             let robot = grid.layers_in(cfg.map.band_min_m, cfg.robot.height_m);
             let boxes = surface_boxes(
