@@ -42,7 +42,9 @@
 //! grid. With a range `D` ([`TensorField::with_range`], `additions.field_range_m`), a cell farther
 //! than `D` from every surface constraint takes only the limited (path) constraints, and none: no
 //! field (zero tensor, no degenerate point). A change then touches only tiles within
-//! `t + √((D + 2t)² + R²)` of it (`t` half a tile's diagonal, `R` the kernel's cutoff radius).
+//! `t + √((D + 2t)² + R²)` of it (`t` half a tile's diagonal, `R` the kernel's cutoff radius). The
+//! edge where the field ends can hold degenerate points of its own, so `D` must lie beyond where the
+//! planners look (20 m by default; `configs/default.toml` says what shorter ranges did).
 
 pub(crate) mod advect;
 pub(crate) mod clearance;
