@@ -51,9 +51,7 @@ fn every_planner_passes_a_passable_door_and_ends_rightly_before_another() {
             let grid = out.ground_truth.grid;
             let far = grid.index(grid.cell_of(d.far_room).unwrap());
             let passable = out.ground_truth.reachable(far);
-            // The far room starts past the wall between the rooms.
-            let wall_end = d.far_room.x - 1.5;
-            let entered = out.trajectory.iter().any(|p| p.x > wall_end + 0.3);
+            let entered = out.trajectory.iter().any(|p| p.x > d.far_room_x0 + 0.3);
             let left = r.frontiers_left.unwrap_or(0);
             let what = format!(
                 "{name} {}: passable {passable}, entered {entered}, {:?} with {left} frontier cells left, {} collisions, completeness {:.3}",

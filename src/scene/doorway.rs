@@ -49,13 +49,14 @@ impl DoorKind {
     }
 }
 
-/// A doorway scene: the mesh, a start in the first room facing the door, and a point in the middle
-/// of the second room.
+/// A doorway scene: the mesh, a start in the first room facing the door, a point in the middle of
+/// the second room, and the x where the second room begins (the far side of the wall between).
 #[derive(Clone, Debug)]
 pub struct Doorway {
     pub mesh: TriMesh,
     pub spawn: Pose2,
     pub far_room: Point2<f64>,
+    pub far_room_x0: f64,
 }
 
 /// Inside size of each room, metres.
@@ -93,5 +94,6 @@ pub fn doorway(kind: DoorKind, width: f64, offset: f64) -> Doorway {
         mesh,
         spawn: Pose2::new(a0 + 1.0, y0 + 0.6, 0.6),
         far_room: Point2::new(0.5 * (b0 + b1), 0.5 * (y0 + y1)),
+        far_room_x0: b0,
     }
 }
